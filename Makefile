@@ -1,0 +1,36 @@
+# formation_rl: one-command jobs. `make help` lists them.
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+ARGS ?=
+
+.PHONY: help setup demo test test-slow bench-env lint clean
+
+help:  ## list the targets
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
+
+$(PY): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[dev]'
+	@touch $(PY)
+
+setup: $(PY)  ## create .venv and install the package with its dev tools
+
+demo: $(PY)  ## roll 64 copies for one episode, print SPEC §6 metrics, write a GIF (ARGS = Hydra overrides)
+	$(PY) -m formation_rl.rollout $(ARGS)
+
+test: $(PY)  ## unit tests (what CI runs)
+	$(PY) -m pytest -q
+
+test-slow: $(PY)  ## the long checks marked slow (10^6 random steps ...)
+	$(PY) -m pytest -q -m slow
+
+bench-env: $(PY)  ## environment throughput, frames/s for B in {1, 64, 1024, 4096}
+	$(PY) benchmarks/env_throughput.py $(ARGS)
+
+lint: $(PY)  ## ruff
+	$(VENV)/bin/ruff check formation_rl tests benchmarks
+
+clean:  ## remove caches (keeps outputs/ and .venv)
+	rm -rf .pytest_cache .ruff_cache build dist *.egg-info

@@ -1,0 +1,196 @@
+"""Typed configuration of the formation world (SPEC §1-4).
+
+The YAML files under ``conf/`` carry the same defaults with their provenance (paper / choice);
+``tests/envs/test_config.py`` checks that the two never drift apart.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+FORMATION_SHAPES = ("v", "chain")
+REWARD_VARIANTS = ("hybrid", "fixed")
+
+
+@dataclass
+class FormationConfig:
+    """A formation: slot geometry and which robot pairs are constrained (SPEC §2)."""
+
+    shape: str = "v"  # v | chain
+    spacing: float = 0.5  # m, distance between consecutive slots (s, or s_chain for chain)
+    angle_deg: float = 45.0  # V half-angle phi (90 = line abreast); ignored by chain
+
+
+def _chain() -> FormationConfig:
+    return FormationConfig(shape="chain", spacing=0.4)
+
+
+@dataclass
+class RewardConfig:
+    """Reward variant and the sparse/guided magnitudes (SPEC §4)."""
+
+    variant: str = "hybrid"  # hybrid: area_formation inside the obstacle area; fixed: never switch
+    area_formation: FormationConfig | None = field(default_factory=_chain)
+    goal: float = 10.0  # R1, leader within goal_radius of the goal
+    formation_open: float = 1.0  # R2, follower holds every constraint of the open-space formation
+    formation_area: float = 1.0  # R3, follower holds its constraint of the obstacle-area formation
+    obstacle_collision: float = -20.0  # R4
+    robot_collision: float = -10.0  # R5
+    tolerance: float = 0.05  # eps, m: a constraint is held when |d - d*| <= eps
+
+
+@dataclass
+class EnvConfig:
+    """Every quantity of the world, with the SPEC default."""
+
+    num_robots: int = 5  # N, index 0 is the leader
+    num_obstacles: int = 4  # M
+    arena_half_size: float = 4.0  # arena is [-a, a]^2
+    robot_radius: float = 0.1  # r
+    mass: float = 1.0  # kg
+    dt: float = 0.1  # s
+    max_force: float = 2.0  # N, force = action * max_force
+    max_speed: float = 0.85  # v_max, m/s
+    obstacle_radius_min: float = 0.4
+    obstacle_radius_max: float = 0.6
+    obstacle_min_gap: float = 0.5  # surface-to-surface gap between obstacles at placement
+    obstacle_area_x: tuple[float, float] = (-3.0, 3.0)
+    obstacle_area_y: tuple[float, float] = (-2.0, 2.0)
+    goal_low: float = 3.0  # goal uniform in [goal_low, goal_high]^2
+    goal_high: float = 3.5
+    goal_radius: float = 0.05  # rho_g
+    start_low: float = -3.8  # robots uniform in [start_low, start_high]^2
+    start_high: float = -2.8
+    max_steps: int = 150  # episode length, ended by truncation
+    robot_collision_margin: float = 0.1  # rho_r
+    obstacle_collision_margin: float = 0.1  # rho_o
+    sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed
+    placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible
+    formation: FormationConfig = field(default_factory=FormationConfig)
+    reward: RewardConfig = field(default_factory=RewardConfig)
+
+    @property
+    def obs_dim(self) -> int:
+        """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (SPEC §3)."""
+        return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1
+
+    @property
+    def area_formation(self) -> FormationConfig:
+        """Formation required while the leader is inside the obstacle area."""
+        if self.reward.variant == "hybrid" and self.reward.area_formation is not None:
+            return self.reward.area_formation
+        return self.formation
+
+    @classmethod
+    def from_dict(cls, cfg: Mapping[str, Any]) -> EnvConfig:
+        """Build from a plain mapping or an OmegaConf node (the Hydra ``env`` group)."""
+        if hasattr(cfg, "_metadata"):  # an OmegaConf DictConfig
+            from omegaconf import OmegaConf
+
+            cfg = OmegaConf.to_container(cfg, resolve=True)
+        cfg = dict(cfg)
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(cfg) - known)
+        if unknown:
+            raise ValueError(f"env.{unknown[0]}: unknown field; allowed: {', '.join(sorted(known))}")
+        formation = cfg.pop("formation", None)
+        reward = cfg.pop("reward", None)
+        for key in ("obstacle_area_x", "obstacle_area_y"):
+            if key in cfg:
+                cfg[key] = tuple(cfg[key])
+        out = cls(**cfg)
+        if formation is not None:
+            out.formation = _sub(FormationConfig, formation, "env.formation")
+        if reward is not None:
+            reward = dict(reward)
+            area = reward.pop("area_formation", "keep")
+            out.reward = _sub(RewardConfig, reward, "env.reward")
+            if area is None:
+                out.reward.area_formation = None
+            elif area != "keep":
+                out.reward.area_formation = _sub(FormationConfig, area, "env.reward.area_formation")
+        return out
+
+    def validate(self) -> None:
+        """Raise one ``ValueError`` naming the field, the value and what is allowed."""
+        _check(self.num_robots, "num_robots", lambda v: isinstance(v, int) and v >= 2, "an integer >= 2")
+        _check(self.num_obstacles, "num_obstacles", lambda v: isinstance(v, int) and v >= 0, "an integer >= 0")
+        _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
+        _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
+        for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
+            _check(getattr(self, name), name, _positive, "a finite number > 0")
+        for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):
+            _check(getattr(self, name), name, _non_negative, "a finite number >= 0")
+        _check(self.obstacle_radius_min, "obstacle_radius_min", _positive, "a finite number > 0")
+        _check(
+            self.obstacle_radius_max,
+            "obstacle_radius_max",
+            lambda v: _positive(v) and v >= self.obstacle_radius_min,
+            f"a finite number >= obstacle_radius_min ({self.obstacle_radius_min})",
+        )
+        inner = self.arena_half_size - self.robot_radius
+        _check(inner, "robot_radius", _positive, f"smaller than arena_half_size ({self.arena_half_size})")
+        for name in ("obstacle_area_x", "obstacle_area_y"):
+            lo_hi = getattr(self, name)
+            _check(
+                lo_hi,
+                name,
+                lambda v: len(v) == 2 and all(map(_finite, v)) and -self.arena_half_size <= v[0] < v[1] <= self.arena_half_size,
+                f"a pair (low, high) with -{self.arena_half_size} <= low < high <= {self.arena_half_size}",
+            )
+        for lo, hi in (("goal_low", "goal_high"), ("start_low", "start_high")):
+            _check(
+                getattr(self, lo),
+                lo,
+                lambda v: _finite(v) and -inner <= v <= getattr(self, hi) <= inner,
+                f"low <= {hi} ({getattr(self, hi)}), both inside the arena [-{inner}, {inner}]",
+            )
+        _check_formation(self.formation, "formation")
+        r = self.reward
+        _check(r.variant, "reward.variant", lambda v: v in REWARD_VARIANTS, f"one of {', '.join(REWARD_VARIANTS)}")
+        if r.area_formation is not None:
+            _check_formation(r.area_formation, "reward.area_formation")
+        for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision"):
+            _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
+        _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
+
+
+def _sub(cls: type, value: Any, where: str) -> Any:
+    if isinstance(value, cls):
+        return value
+    value = dict(value)
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(value) - known)
+    if unknown:
+        raise ValueError(f"{where}.{unknown[0]}: unknown field; allowed: {', '.join(sorted(known))}")
+    return cls(**value)
+
+
+def _finite(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _positive(v: Any) -> bool:
+    return _finite(v) and v > 0
+
+
+def _non_negative(v: Any) -> bool:
+    return _finite(v) and v >= 0
+
+
+def _check(value: Any, name: str, ok, allowed: str) -> None:
+    try:
+        good = bool(ok(value))
+    except TypeError:
+        good = False
+    if not good:
+        raise ValueError(f"env.{name} = {value!r} is invalid: must be {allowed}")
+
+
+def _check_formation(f: FormationConfig, name: str) -> None:
+    _check(f.shape, f"{name}.shape", lambda v: v in FORMATION_SHAPES, f"one of {', '.join(FORMATION_SHAPES)}")
+    _check(f.spacing, f"{name}.spacing", _positive, "a finite number > 0")
+    _check(f.angle_deg, f"{name}.angle_deg", lambda v: _finite(v) and 0 < v <= 90, "a number in (0, 90]")

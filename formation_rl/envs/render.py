@@ -1,0 +1,102 @@
+"""Pictures of the world: one state to an RGB array, a rollout to a GIF (matplotlib, Agg)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from tensordict import TensorDictBase  # noqa: E402
+
+from formation_rl.envs import formations  # noqa: E402
+from formation_rl.envs.config import EnvConfig  # noqa: E402
+
+LEADER, LEFT, RIGHT = "#d62728", "#1f77b4", "#2ca02c"
+
+
+def role_colors(n: int) -> list[str]:
+    """Leader red, left followers (odd indices) blue, right followers (even) green."""
+    return [LEADER] + [LEFT if i % 2 else RIGHT for i in range(1, n)]
+
+
+def active_pairs(positions: torch.Tensor, cfg: EnvConfig) -> torch.Tensor:
+    """Constrained pairs of the formation active in this state. ``[N, N]`` bool, upper triangle."""
+    (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
+    lx, ly = positions[0].tolist()
+    inside = x0 < lx < x1 and y0 < ly < y1
+    formation = cfg.area_formation if inside else cfg.formation
+    return formations.pair_mask(formation, cfg.num_robots)
+
+
+def draw_state(ax, state: TensorDictBase, cfg: EnvConfig, title: str | None = None) -> None:
+    """Draw one copy's state (a TensorDict with the keys of ``("state", ...)``) on ``ax``."""
+    a = cfg.arena_half_size
+    pos = state["positions"].detach().cpu()
+    n = pos.shape[0]
+    ax.set_xlim(-a, a)
+    ax.set_ylim(-a, a)
+    ax.set_aspect("equal")
+    ax.add_patch(plt.Rectangle((-a, -a), 2 * a, 2 * a, fill=False, lw=1.5, color="black"))
+    (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
+    ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, color="#f5deb3", alpha=0.5, lw=0))
+    for c, r in zip(state["obstacle_centers"].cpu().tolist(), state["obstacle_radii"].cpu().tolist()):
+        ax.add_patch(plt.Circle(c, r, color="#555555"))
+    g = state["goal"].cpu().tolist()
+    ax.add_patch(plt.Circle(g, max(cfg.goal_radius, 0.08), color="gold", ec="black", lw=0.8, zorder=3))
+    for i, j in torch.nonzero(active_pairs(pos, cfg)).tolist():
+        ax.plot(*zip(pos[i].tolist(), pos[j].tolist()), color="#888888", lw=1, zorder=4)
+    colors = role_colors(n)
+    for i in range(n):
+        ax.add_patch(plt.Circle(pos[i].tolist(), cfg.robot_radius, color=colors[i], zorder=5))
+    ax.set_xticks([])
+    ax.set_yticks([])
+    if title:
+        ax.set_title(title, fontsize=9)
+
+
+def _to_rgb(fig) -> np.ndarray:
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+
+
+def render_state(state: TensorDictBase, cfg: EnvConfig, size: float = 4.0, dpi: int = 80,
+                 title: str | None = None) -> np.ndarray:
+    """RGB array ``[H, W, 3]`` (uint8) of one copy's state."""
+    fig, ax = plt.subplots(figsize=(size, size), dpi=dpi)
+    fig.subplots_adjust(0.02, 0.02, 0.98, 0.93 if title else 0.98)
+    try:
+        draw_state(ax, state, cfg, title)
+        return _to_rgb(fig)
+    finally:
+        plt.close(fig)
+
+
+def rollout_states(rollout: TensorDictBase, index: int = 0) -> list[TensorDictBase]:
+    """The world states of copy ``index`` of a ``[B, T]`` rollout: the reset state, then each step."""
+    td = rollout[index] if rollout.batch_dims == 2 else rollout
+    return [td[0]["state"]] + [td[t]["next", "state"] for t in range(td.shape[0])]
+
+
+def save_gif(rollout: TensorDictBase, path: str | Path, cfg: EnvConfig, index: int = 0, fps: int = 15,
+             size: float = 4.0, dpi: int = 60) -> Path:
+    """Write copy ``index`` of a rollout (``[B, T]`` or ``[T]``) to an animated GIF."""
+    import imageio.v2 as imageio
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(size, size), dpi=dpi)
+    fig.subplots_adjust(0.02, 0.02, 0.98, 0.93)
+    frames = []
+    try:
+        for t, state in enumerate(rollout_states(rollout, index)):
+            ax.clear()
+            draw_state(ax, state, cfg, title=f"step {t}")
+            frames.append(_to_rgb(fig))
+    finally:
+        plt.close(fig)
+    imageio.mimsave(path, frames, duration=1000 / fps, loop=0)
+    return path

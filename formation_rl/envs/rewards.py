@@ -1,0 +1,110 @@
+"""Collisions, sensing, formation errors and the hybrid/fixed reward of SPEC §4, batched.
+
+Tensors here are *batch-last* (``[2, N, B]`` for positions): every broadcast then runs over a
+contiguous inner dimension of B copies, several times faster on CPU than ``[B, N, 2]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from formation_rl.envs import formations
+from formation_rl.envs.config import EnvConfig
+
+
+@dataclass
+class Geometry:
+    """Formation constants, ``F`` = 1 formation (fixed) or 2 (open space, obstacle area)."""
+
+    dstar: torch.Tensor  # [F, N, N, 1] desired distances d*_ij
+    own: torch.Tensor  # [F, N, N, 1] 1 where follower i keeps d*_ij to robot j
+    pairs: torch.Tensor  # [F, N, N, 1] 1 on unordered constrained pairs i < j (RFSE)
+    no_self: torch.Tensor  # [N, N, 1] +inf on the diagonal, 0 elsewhere
+
+    @classmethod
+    def build(cls, cfg: EnvConfig, device) -> Geometry:
+        n = cfg.num_robots
+        switch = cfg.reward.variant == "hybrid" and cfg.area_formation != cfg.formation
+        shapes = (cfg.formation, cfg.area_formation) if switch else (cfg.formation,)
+
+        def stack(fn) -> torch.Tensor:
+            return torch.stack([fn(f, n).float() for f in shapes])[..., None].to(device)
+
+        return cls(
+            dstar=stack(formations.desired_distances),
+            own=stack(formations.constraints),
+            pairs=stack(formations.pair_mask),
+            no_self=torch.diag(torch.full((n,), float("inf")))[..., None].to(device),
+        )
+
+
+def step_quantities(
+    pos: torch.Tensor,  # [2, N, B]
+    goal: torch.Tensor,  # [2, B]
+    centers: torch.Tensor,  # [2, M, B]
+    radii: torch.Tensor,  # [M, B]
+    geom: Geometry,
+    cfg: EnvConfig,
+) -> dict[str, torch.Tensor]:
+    """Everything the reward, the observation and the metrics need from one world state."""
+    r, rw = cfg.robot_radius, cfg.reward
+    n, b = pos.shape[1:]
+    px, py = pos[0], pos[1]  # [N, B]
+    dx, dy = px[:, None] - px[None], py[:, None] - py[None]
+    dist = torch.addcmul(dx * dx, dy, dy).sqrt_()  # [N, N, B]
+    # min over floats, then compare: far cheaper than any() over a boolean tensor
+    nearest_robot = (dist + geom.no_self).amin(1)  # [N, B]
+    robot_hit = nearest_robot < 2 * r + cfg.robot_collision_margin  # [N, B]
+    ox = px[:, None] - centers[0][None]  # [N, M, B], p_i - c_j
+    oy = py[:, None] - centers[1][None]
+    gap = torch.addcmul(ox * ox, oy, oy).sqrt_().sub_(radii[None]).sub_(r)  # surface gap [N, M, B]
+    sensed = gap <= cfg.sensing_range  # [N, M, B]
+    nearest_obstacle = gap.amin(1) if gap.shape[1] else torch.full_like(px, float("inf"))  # [N, B]
+    obstacle_hit = nearest_obstacle < cfg.obstacle_collision_margin
+
+    (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
+    lx, ly = px[0], py[0]
+    in_area = (lx > x0) & (lx < x1) & (ly > y0) & (ly < y1)  # [B], leader strictly inside
+    to_goal = pos[:, 0] - goal  # [2, B]
+    goal_dist = torch.addcmul(to_goal[0] * to_goal[0], to_goal[1], to_goal[1]).sqrt_()  # [B]
+
+    # |d_ij - d*_ij| under each formation (F of them), reduced per follower and over pairs
+    err = (dist[None] - geom.dstar).abs_()  # [F, N, N, B]
+    own_err = err * geom.own
+    follower_err = own_err.sum(2)  # [F, N, B]
+    worst = own_err.amax(2)  # [F, N, B], 0 for the leader
+    formation_error = (err * geom.pairs).sum((1, 2))  # [F, B]
+    if err.shape[0] == 2:  # hybrid: the area formation is active while the leader is inside
+        area = in_area
+        follower_err = torch.where(area, follower_err[1], follower_err[0])
+        worst = torch.where(area, worst[1], worst[0])
+        formation_error = torch.where(area, formation_error[1], formation_error[0])
+        bonus = torch.where(area, rw.formation_area, rw.formation_open)  # R3 or R2, [B]
+    else:
+        area = in_area if rw.variant == "hybrid" else torch.zeros_like(in_area)
+        follower_err, worst, formation_error = follower_err[0], worst[0], formation_error[0]
+        bonus = torch.where(area, rw.formation_area, rw.formation_open)
+
+    # sparse replaces guided: R1 leader at goal, R2/R3 follower holds formation, R4, R5 collisions
+    positive = worst <= rw.tolerance  # [N, B]
+    positive[0] = goal_dist <= cfg.goal_radius
+    positive_value = bonus.expand(n, b).clone()
+    positive_value[0] = rw.goal
+    sparse = positive * positive_value + obstacle_hit * rw.obstacle_collision + robot_hit * rw.robot_collision
+    guided = follower_err.neg_()
+    guided[0] = -goal_dist
+    reward = torch.where(positive | obstacle_hit | robot_hit, sparse, guided)  # [N, B]
+
+    return {
+        "reward": reward,
+        "to_obstacle": (ox, oy),
+        "sensed": sensed,
+        "to_goal": to_goal,
+        "in_area": in_area,
+        "goal_distance": goal_dist,
+        "formation_error": formation_error,
+        "robot_collision": nearest_robot.amin(0) < 2 * r + cfg.robot_collision_margin,  # [B]
+        "obstacle_collision": nearest_obstacle.amin(0) < cfg.obstacle_collision_margin,
+    }

@@ -1,0 +1,172 @@
+"""World of SPEC §1 and §3 as batched tensor functions: dynamics, scenario sampling, observations.
+
+Every function works on a batch of environment copies at once (leading dim ``B``); none loops over
+copies or robots.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import torch
+
+from formation_rl.envs.config import EnvConfig
+
+CANDIDATES = 32  # rejection-sampling candidates drawn per object and round
+EXACT = "donot_use_mm_for_euclid_dist"
+
+
+def integrate(pos: torch.Tensor, vel: torch.Tensor, action: torch.Tensor, cfg: EnvConfig):
+    """One semi-implicit Euler step (SPEC §1, paper §2.1). All batch-last ``[2, N, B]``."""
+    vel = vel + action * (cfg.max_force / cfg.mass * cfg.dt)
+    speed = torch.hypot(vel[0], vel[1])  # [N, B]
+    vel = vel * (cfg.max_speed / speed).clamp_(max=1.0)  # rescale only when |v| > v_max
+    pos = pos + vel * cfg.dt
+    lim = cfg.arena_half_size - cfg.robot_radius
+    into_wall = ((pos <= -lim) & (vel < 0)) | ((pos >= lim) & (vel > 0))  # velocity into a wall is zeroed
+    return pos.clamp_(-lim, lim), vel.masked_fill_(into_wall, 0.0)
+
+
+def _uniform(shape: tuple[int, ...], low: float, high: float, gen: torch.Generator, device) -> torch.Tensor:
+    return torch.rand(shape, generator=gen, device=device) * (high - low) + low
+
+
+def place_discs(
+    n: int,
+    count: int,
+    sample: Callable[[int], tuple[torch.Tensor, torch.Tensor]],
+    min_gap: float,
+    tries: int,
+    device: torch.device | str,
+    blockers: tuple[torch.Tensor, torch.Tensor, float] | None = None,
+) -> tuple[torch.Tensor, torch.Tensor] | None:
+    """Place ``count`` discs in each of ``n`` copies by sequential rejection sampling.
+
+    ``sample(P)`` draws ``CANDIDATES`` candidate discs per pending copy, ``([P, K, 2], [P, K])``.
+    Surface gaps between placed discs are at least ``min_gap``; against ``blockers`` (centres
+    ``[n, F, 2]``, radii ``[n, F]``, gap) at least that gap. A copy that jams is restarted; after
+    ``tries`` rounds with copies still pending, returns ``None``.
+    """
+    dev = torch.device(device)
+    centers = torch.zeros(n, count, 2, device=dev)
+    radii = torch.zeros(n, count, device=dev)
+    pending = torch.arange(n, device=dev)
+    for _ in range(tries):
+        if pending.numel() == 0 or count == 0:
+            return centers, radii
+        p = pending.numel()
+        placed_ok = torch.ones(p, dtype=torch.bool, device=dev)
+        rows = torch.arange(p, device=dev)
+        for k in range(count):
+            c, r = sample(p)  # [P, K, 2], [P, K]
+            ok = torch.ones(r.shape, dtype=torch.bool, device=dev)
+            if k > 0:
+                gap = torch.cdist(c, centers[pending, :k], compute_mode=EXACT) - r[..., None] - radii[pending, None, :k]
+                ok &= (gap >= min_gap).all(-1)
+            if blockers is not None and blockers[0].shape[1] > 0:
+                bc, br, bgap = blockers
+                gap = torch.cdist(c, bc[pending], compute_mode=EXACT) - r[..., None] - br[pending, None, :]
+                ok &= (gap >= bgap).all(-1)
+            pick = ok.to(torch.uint8).argmax(-1)  # first valid candidate (0 when none)
+            placed_ok &= ok.any(-1)
+            centers[pending, k] = c[rows, pick]
+            radii[pending, k] = r[rows, pick]
+        pending = pending[~placed_ok]
+    return (centers, radii) if pending.numel() == 0 or count == 0 else None
+
+
+def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device) -> dict[str, torch.Tensor]:
+    """Goal, obstacles and start positions for ``n`` fresh episodes (SPEC §1)."""
+    k = CANDIDATES
+    (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
+
+    def obstacle(p: int):
+        c = torch.stack([_uniform((p, k), x0, x1, gen, device), _uniform((p, k), y0, y1, gen, device)], -1)
+        return c, _uniform((p, k), cfg.obstacle_radius_min, cfg.obstacle_radius_max, gen, device)
+
+    placed = place_discs(n, cfg.num_obstacles, obstacle, cfg.obstacle_min_gap, cfg.placement_tries, device)
+    if placed is None:
+        raise ValueError(
+            f"env.num_obstacles = {cfg.num_obstacles} is invalid: obstacles of radius "
+            f"[{cfg.obstacle_radius_min}, {cfg.obstacle_radius_max}] cannot be placed in the obstacle area "
+            f"x{list(cfg.obstacle_area_x)} y{list(cfg.obstacle_area_y)} with gaps >= obstacle_min_gap "
+            f"({cfg.obstacle_min_gap}) after placement_tries ({cfg.placement_tries}) rounds; "
+            "use fewer or smaller obstacles, a smaller gap or a larger area"
+        )
+    obstacle_centers, obstacle_radii = placed
+
+    # robots: centre distances >= 2r + rho_r, i.e. discs of radius r + rho_r / 2 with zero gap;
+    # clear of obstacle collision at t = 0 (choice: the SPEC's start square may touch an obstacle)
+    exclusion = cfg.robot_radius + cfg.robot_collision_margin / 2
+
+    def robot(p: int):
+        c = _uniform((p, k, 2), cfg.start_low, cfg.start_high, gen, device)
+        return c, torch.full((p, k), exclusion, device=device)
+
+    clearance = cfg.robot_collision_margin / 2 + cfg.obstacle_collision_margin  # |p-c| - R >= r + rho_o
+    placed = place_discs(
+        n, cfg.num_robots, robot, 0.0, cfg.placement_tries, device, (obstacle_centers, obstacle_radii, clearance)
+    )
+    if placed is None:
+        raise ValueError(
+            f"env.num_robots = {cfg.num_robots} is invalid: that many robots cannot start in the square "
+            f"[start_low, start_high]^2 = [{cfg.start_low}, {cfg.start_high}]^2 with centre distances >= "
+            f"2 robot_radius + robot_collision_margin ({2 * cfg.robot_radius + cfg.robot_collision_margin:g}) "
+            f"and clear of obstacles after placement_tries ({cfg.placement_tries}) rounds; "
+            "enlarge the start square or use fewer robots"
+        )
+    goal = _uniform((n, 2), cfg.goal_low, cfg.goal_high, gen, device)
+    return {
+        "positions": placed[0],
+        "goal": goal,
+        "obstacle_centers": obstacle_centers,
+        "obstacle_radii": obstacle_radii,
+    }
+
+
+def observation_index(n: int, m: int, device=None) -> torch.Tensor:
+    """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``.
+
+    Source rows: positions x (N), y (N); velocities x (N), y (N); p_lea - p_g (2); a zero (1);
+    obstacle offsets x (N*M), y (N*M); sensed flags (N*M); obstacle-area flag (1).
+    """
+    P, V, G, Z = 0, 2 * n, 4 * n, 4 * n + 2
+    OX, OY, S = Z + 1, Z + 1 + n * m, Z + 1 + 2 * n * m
+    F = S + n * m
+    rows = []
+    for i in range(n):
+        row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
+        if i == 0:
+            row += [G, G + 1] + [Z] * (2 * (n - 2))  # leader: p - p_g, then zeros
+        else:
+            for k in (j if j < i else j + 1 for j in range(n - 1)):  # other robots in index order
+                row += [P + k, P + n + k]
+        for j in range(m):
+            row += [OX + i * m + j, OY + i * m + j, S + i * m + j]  # (p - c_j, 1) if sensed
+        rows += row + [F]
+    return torch.tensor(rows, dtype=torch.int64, device=device)
+
+
+def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], index: torch.Tensor) -> torch.Tensor:
+    """Per-robot observations of SPEC §3, ``[B, N, D]`` with D = 4 + 2(N-1) + 3M + 1.
+
+    ``pos``/``vel`` are batch-last ``[2, N, B]``, ``q`` the output of
+    :func:`formation_rl.envs.rewards.step_quantities`, ``index`` from :func:`observation_index`.
+    One gather of contiguous rows, then one transpose: no strided writes.
+    """
+    _, n, b = pos.shape
+    sensed = q["sensed"].to(pos.dtype)  # [N, M, B]
+    ox, oy = q["to_obstacle"]
+    source = torch.cat(
+        [
+            pos.reshape(2 * n, b),
+            vel.reshape(2 * n, b),
+            q["to_goal"],
+            pos.new_zeros(1, b),
+            (ox * sensed).view(-1, b),
+            (oy * sensed).view(-1, b),
+            sensed.view(-1, b),
+            q["in_area"].to(pos.dtype)[None],
+        ]
+    )
+    return source.index_select(0, index).T.reshape(b, n, -1)
