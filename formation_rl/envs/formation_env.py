@@ -24,6 +24,11 @@ class FormationEnv(EnvBase):
     ``[B, N, D]``, ``("agents", "action")`` ``[B, N, 2]`` in [-1, 1], ``("agents", "reward")``
     ``[B, N, 1]``; root ``done``/``terminated``/``truncated`` ``[B, 1]``; the world under ``"state"``
     and the per-step diagnostics of SPEC §6 at the root.
+
+    ``compile_physics=True`` runs the step's tensor program (dynamics, rewards, observations) through
+    ``torch.compile``: faster per step at large B on CPU, after a compilation of about 30 s on the
+    first step (``benchmarks/README.md`` has the numbers). TorchRL's own ``compile=`` argument,
+    which compiles all of ``step_and_maybe_reset``, works too.
     """
 
     def __init__(
@@ -33,6 +38,7 @@ class FormationEnv(EnvBase):
         config: EnvConfig | dict | None = None,
         device: torch.device | str = "cpu",
         seed: int | None = None,
+        compile_physics: bool = False,
     ):
         if not isinstance(num_envs, int) or isinstance(num_envs, bool) or num_envs < 1:
             raise ValueError(f"num_envs = {num_envs!r} is invalid: must be an integer >= 1")
@@ -45,6 +51,7 @@ class FormationEnv(EnvBase):
         self._make_specs(b, n, m, d)
         self._geom = Geometry.build(cfg, self.device)
         self._obs_index = world.observation_index(n, m, self.device)
+        self._advance = torch.compile(self._advance_eager) if compile_physics else self._advance_eager
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(int(torch.randint(2**62, ())) if seed is None else seed)
         # world state, batch-last ([2, N, B] positions ...); sampling every copy now also proves
@@ -86,11 +93,10 @@ class FormationEnv(EnvBase):
     # ------------------------------------------------------------------ core
     def _place(self, idx: torch.Tensor | None, fresh: dict[str, torch.Tensor]) -> None:
         """Install freshly sampled scenarios (batch-first) in copies ``idx`` (all when None)."""
-        n = fresh["positions"].shape[0]
-        fresh["velocities"] = torch.zeros_like(fresh["positions"])
+        vel = fresh.get("velocities", torch.zeros_like(fresh["positions"]))  # at rest unless given
         last = {  # batch-last views of the fresh values
             "pos": fresh["positions"].permute(2, 1, 0),
-            "vel": fresh["velocities"].permute(2, 1, 0),
+            "vel": vel.permute(2, 1, 0),
             "goal": fresh["goal"].T,
             "centers": fresh["obstacle_centers"].permute(2, 1, 0),
             "radii": fresh["obstacle_radii"].T,
@@ -106,37 +112,50 @@ class FormationEnv(EnvBase):
         # out of place: earlier outputs hold these tensors
         self._fixed = {k: self._fixed[k].index_copy(0, idx, fresh[k]) for k in fixed}
         self._steps.index_fill_(0, idx, 0)
-        assert n == idx.numel()
 
-    def _observe(self, rewards: bool) -> TensorDict:
-        w = self._world
-        q = step_quantities(w["pos"], w["goal"], w["centers"], w["radii"], self._geom, self.config)
-        b, n = self.num_envs, self.config.num_robots
-        agents = {"observation": world.observe(w["pos"], w["vel"], q, self._obs_index)}
-        if rewards:
-            agents["reward"] = q["reward"].T.unsqueeze(-1).contiguous()  # [B, N, 1]
-        state = {
-            "positions": w["pos"].permute(2, 1, 0).contiguous(),  # [B, N, 2]
-            "velocities": w["vel"].permute(2, 1, 0).contiguous(),
-            **self._fixed,
-        }
-        out = {
-            "agents": TensorDict(agents, batch_size=(b, n), device=self.device),
-            "state": TensorDict(state, batch_size=(b,), device=self.device),
-            "robot_collision": q["robot_collision"].unsqueeze(-1),
+    def _measure(self, pos, vel, goal, centers, radii) -> dict[str, torch.Tensor]:
+        """Observation, reward and diagnostics of a world given batch-last, returned batch-first."""
+        q = step_quantities(pos, goal, centers, radii, self._geom, self.config)
+        return {
+            "observation": world.observe(pos, vel, q, self._obs_index),  # [B, N, D]
+            "reward": q["reward"].T.unsqueeze(-1).contiguous(),  # [B, N, 1]
+            "positions": pos.permute(2, 1, 0).contiguous(),  # [B, N, 2]
+            "velocities": vel.permute(2, 1, 0).contiguous(),
+            "robot_collision": q["robot_collision"].unsqueeze(-1),  # [B, 1]
             "obstacle_collision": q["obstacle_collision"].unsqueeze(-1),
             "in_obstacle_area": q["in_area"].unsqueeze(-1),
             "goal_distance": q["goal_distance"].unsqueeze(-1),
             "formation_error": q["formation_error"].unsqueeze(-1),
         }
+
+    def _advance_eager(self, pos, vel, action, goal, centers, radii):
+        """Integrate one step and measure the new world: the whole per-step tensor program."""
+        pos, vel = world.integrate(pos, vel, action.clamp(-1.0, 1.0).permute(2, 1, 0), self.config)
+        return pos, vel, self._measure(pos, vel, goal, centers, radii)
+
+    def _pack(self, m: dict[str, torch.Tensor], rewards: bool) -> TensorDict:
+        b, n = self.num_envs, self.config.num_robots
+        agents = {"observation": m["observation"]}
+        if rewards:
+            agents["reward"] = m["reward"]
+        out = {
+            "agents": TensorDict(agents, batch_size=(b, n), device=self.device),
+            "state": TensorDict({"positions": m["positions"], "velocities": m["velocities"], **self._fixed},
+                                batch_size=(b,), device=self.device),
+            **{k: m[k] for k in FLAG_KEYS + VALUE_KEYS},
+        }
         return TensorDict(out, batch_size=(b,), device=self.device)
 
-    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        action = tensordict.get(("agents", "action")).clamp(-1.0, 1.0).permute(2, 1, 0)  # [2, N, B]
+    def _observe(self, rewards: bool) -> TensorDict:
         w = self._world
-        w["pos"], w["vel"] = world.integrate(w["pos"], w["vel"], action, self.config)
+        return self._pack(self._measure(w["pos"], w["vel"], w["goal"], w["centers"], w["radii"]), rewards)
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        w = self._world
+        action = tensordict.get(("agents", "action"))
+        w["pos"], w["vel"], measured = self._advance(w["pos"], w["vel"], action, w["goal"], w["centers"], w["radii"])
         self._steps += 1
-        out = self._observe(rewards=True)
+        out = self._pack(measured, rewards=True)
         truncated = (self._steps >= self.config.max_steps).unsqueeze(-1)  # [B, 1]
         out.set("truncated", truncated)
         out.set("terminated", torch.zeros_like(truncated))
@@ -181,7 +200,6 @@ class FormationEnv(EnvBase):
             current[k] = torch.as_tensor(v, dtype=torch.float32, device=self.device).expand_as(current[k]).clone()
         kept = self._steps.clone()
         self._place(None, current)
-        self._world["vel"] = current["velocities"].permute(2, 1, 0).contiguous()
         self._steps = kept if steps is None else torch.as_tensor(steps, device=self.device).expand_as(kept).clone()
         return self._observe(rewards=False)
 

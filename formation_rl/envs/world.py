@@ -155,18 +155,16 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     One gather of contiguous rows, then one transpose: no strided writes.
     """
     _, n, b = pos.shape
-    sensed = q["sensed"].to(pos.dtype)  # [N, M, B]
+    nm = q["sensed"].shape[0] * q["sensed"].shape[1]
+    source = torch.empty(4 * n + 4 + 3 * nm, b, dtype=pos.dtype, device=pos.device)  # rows as documented
+    source[: 2 * n] = pos.reshape(2 * n, b)
+    source[2 * n : 4 * n] = vel.reshape(2 * n, b)
+    source[4 * n : 4 * n + 2] = q["to_goal"]
+    source[4 * n + 2] = 0.0
+    o = 4 * n + 3
+    sensed = source[o + 2 * nm : o + 3 * nm].view_as(q["sensed"]).copy_(q["sensed"])  # [N, M, B] as 0/1
     ox, oy = q["to_obstacle"]
-    source = torch.cat(
-        [
-            pos.reshape(2 * n, b),
-            vel.reshape(2 * n, b),
-            q["to_goal"],
-            pos.new_zeros(1, b),
-            (ox * sensed).view(-1, b),
-            (oy * sensed).view(-1, b),
-            sensed.view(-1, b),
-            q["in_area"].to(pos.dtype)[None],
-        ]
-    )
+    torch.mul(ox, sensed, out=source[o : o + nm].view_as(ox))  # (p - c_j, 1) if sensed, else zeros
+    torch.mul(oy, sensed, out=source[o + nm : o + 2 * nm].view_as(oy))
+    source[-1] = q["in_area"]
     return source.index_select(0, index).T.reshape(b, n, -1)

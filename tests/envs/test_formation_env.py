@@ -1,0 +1,176 @@
+"""The TorchRL env: specs, observation layout, resets, seeding, robustness."""
+
+import math
+
+import pytest
+import torch
+from tensordict import TensorDict
+from torchrl.envs.utils import check_env_specs
+
+from formation_rl.envs import EnvConfig, FormationEnv
+
+
+@pytest.mark.parametrize("num_envs", [1, 64])
+def test_check_env_specs(num_envs):
+    env = FormationEnv(num_envs, seed=0)
+    check_env_specs(env)
+    td = env.rollout(3)
+    b = num_envs
+    assert td["agents", "observation"].shape == (b, 3, 5, 25)
+    assert td["agents", "action"].shape == (b, 3, 5, 2)
+    assert td["next", "agents", "reward"].shape == (b, 3, 5, 1)
+    assert td["next", "done"].shape == (b, 3, 1)
+    assert td["next", "state", "obstacle_centers"].shape == (b, 3, 4, 2)
+    assert td["next", "state", "obstacle_radii"].shape == (b, 3, 4)
+    for k in ("robot_collision", "obstacle_collision", "in_obstacle_area"):
+        assert td["next", k].dtype == torch.bool and td["next", k].shape == (b, 3, 1)
+
+
+@pytest.mark.parametrize("n,m", [(2, 0), (3, 1), (9, 6)])
+def test_other_team_sizes(n, m):
+    env = FormationEnv(8, config=EnvConfig(num_robots=n, num_obstacles=m), seed=0)
+    check_env_specs(env)
+    assert env.observation_spec["agents", "observation"].shape == (8, n, 4 + 2 * (n - 1) + 3 * m + 1)
+
+
+def test_observation_layout():
+    cfg = EnvConfig(num_robots=3, num_obstacles=2)
+    env = FormationEnv(1, config=cfg, seed=0)
+    pos = [[1.0, 1.0], [0.0, 1.2], [-2.0, 3.0]]
+    vel = [[0.1, 0.2], [0.0, -0.3], [0.5, 0.0]]
+    # obstacle 0: gap to robot 0 is |(1,1)-(1,1.75)| - 0.1 - 0.5 = 0.15 <= rho_d; robot 1: 1.14 - 0.6 > 0.2
+    obs = env.set_world_state(positions=[pos], velocities=[vel], goal=[[3.2, 3.1]],
+                              obstacle_centers=[[[1.0, 1.75], [-3.0, -1.0]]], obstacle_radii=[[0.5, 0.4]])
+    o = obs["agents", "observation"][0]
+    assert o.shape == (3, 4 + 4 + 6 + 1)
+    expected_leader = [1.0, 1.0, 0.1, 0.2, 1.0 - 3.2, 1.0 - 3.1, 0.0, 0.0, 0.0, -0.75, 1.0, 0.0, 0.0, 0.0, 1.0]
+    assert o[0].tolist() == pytest.approx(expected_leader, abs=1e-6)
+    # followers: other robots' positions in index order, nothing sensed; flag = leader in area
+    assert o[1].tolist() == pytest.approx([0.0, 1.2, 0.0, -0.3, 1.0, 1.0, -2.0, 3.0] + [0.0] * 6 + [1.0], abs=1e-6)
+    assert o[2].tolist() == pytest.approx([-2.0, 3.0, 0.5, 0.0, 1.0, 1.0, 0.0, 1.2] + [0.0] * 6 + [1.0], abs=1e-6)
+
+
+def test_partial_reset_only_touches_flagged_copies():
+    env = FormationEnv(3, seed=0)
+    td = env.reset()
+    for _ in range(5):
+        td = env.rand_step(td)
+        td = td["next"].exclude(("agents", "reward"))
+    before = env.world_state().clone()
+    flag = torch.tensor([[False], [True], [False]])
+    td = env.reset(td.update({"_reset": flag}))  # TorchRL's way: the current data plus the mask
+    after = env.world_state()
+    for k in ("positions", "velocities", "goal", "obstacle_centers", "obstacle_radii"):
+        assert torch.equal(after[k][[0, 2]], before[k][[0, 2]]), k
+        assert torch.equal(td["state", k], after[k]), k
+        if k != "velocities":
+            assert not torch.equal(after[k][1], before[k][1]), k
+    assert after["velocities"][1].abs().sum() == 0
+    # copy 1 restarted its clock: copies 0 and 2 truncate 5 steps before it
+    dones = []
+    for _ in range(150):
+        td = env.rand_step(td)
+        dones.append(td["next", "truncated"][:, 0].clone())
+        td = td["next"].exclude(("agents", "reward"))
+    first = [int(torch.stack(dones)[:, i].nonzero()[0]) + 1 for i in range(3)]
+    assert first == [145, 150, 145]
+
+
+def test_auto_reset_in_rollout():
+    env = FormationEnv(2, config=EnvConfig(max_steps=10), seed=0)
+    r = env.rollout(25, break_when_any_done=False)
+    assert r["next", "done"][:, :, 0].sum(1).tolist() == [2, 2]
+    assert r["next", "truncated"][0, 9, 0] and r["next", "truncated"][0, 19, 0]
+    # the step after a truncation starts a fresh episode from rest
+    assert r["state", "velocities"][:, 10].abs().sum() == 0
+
+
+def test_seeding_reproduces_scenarios():
+    a, b = FormationEnv(16, seed=7), FormationEnv(16, seed=7)
+    ra, rb = a.reset(), b.reset()
+    assert torch.equal(ra["state", "positions"], rb["state", "positions"])
+    assert torch.equal(ra["state", "obstacle_centers"], rb["state", "obstacle_centers"])
+    c = FormationEnv(16, seed=8).reset()
+    assert not torch.equal(ra["state", "goal"], c["state", "goal"])
+    a.set_seed(3)
+    b.set_seed(3)
+    assert torch.equal(a.reset()["state", "obstacle_radii"], b.reset()["state", "obstacle_radii"])
+
+
+def test_sampled_scenarios_follow_the_spec():
+    cfg = EnvConfig()
+    s = FormationEnv(512, seed=0).reset()["state"]
+    c, r, p, g = s["obstacle_centers"], s["obstacle_radii"], s["positions"], s["goal"]
+    assert ((r > 0.4) & (r < 0.6)).all()
+    assert ((c[..., 0] >= -3) & (c[..., 0] <= 3) & (c[..., 1] >= -2) & (c[..., 1] <= 2)).all()
+    gaps = torch.cdist(c, c) - r[:, :, None] - r[:, None, :] + torch.eye(4) * 10
+    assert gaps.min() >= 0.5 - 1e-6
+    assert ((g >= 3.0) & (g <= 3.5)).all()
+    assert ((p >= -3.8) & (p <= -2.8)).all()
+    dists = torch.cdist(p, p) + torch.eye(5) * 10
+    assert dists.min() >= 2 * cfg.robot_radius + cfg.robot_collision_margin - 1e-6
+    assert not FormationEnv(512, seed=0).reset()["obstacle_collision"].any()
+
+
+def _random_walk(env, steps, extreme):
+    td = env.reset()
+    lim = env.config.arena_half_size - env.config.robot_radius
+    for t in range(steps):
+        if extreme:  # always +-1, alternating every 7 steps per robot
+            sign = 1.0 if (t // 7) % 2 == 0 else -1.0
+            action = torch.full(env.full_action_spec["agents", "action"].shape, sign)
+            action[:, ::2] *= -1
+        else:
+            action = env.full_action_spec["agents", "action"].rand()
+        td.set(("agents", "action"), action)
+        out, td = env.step_and_maybe_reset(td)
+        nxt = out["next"]
+        for key, value in nxt.items(include_nested=True, leaves_only=True):
+            if value.is_floating_point():
+                assert torch.isfinite(value).all(), (key, t)
+        pos = nxt["state", "positions"]
+        assert (pos.abs() <= lim + 1e-6).all(), t
+        assert (nxt["state", "velocities"].norm(dim=-1) <= env.config.max_speed + 1e-5).all(), t
+
+
+@pytest.mark.parametrize("extreme", [False, True])
+def test_hundred_thousand_random_steps_stay_finite_and_inside(extreme):
+    env = FormationEnv(500, seed=1)
+    _random_walk(env, 200, extreme)  # 500 copies x 200 steps = 10^5 frames
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("extreme", [False, True])
+def test_million_random_steps_stay_finite_and_inside(extreme):
+    env = FormationEnv(1000, seed=2)
+    _random_walk(env, 1000, extreme)  # 10^6 frames
+
+
+def test_world_state_round_trip_and_unknown_key():
+    env = FormationEnv(2, seed=0)
+    s = env.world_state()
+    env.set_world_state(**{k: s[k] for k in s.keys()})
+    assert torch.equal(env.world_state()["positions"], s["positions"])
+    with pytest.raises(ValueError, match="unknown key 'pos'"):
+        env.set_world_state(pos=torch.zeros(2, 5, 2))
+
+
+def test_leader_speed_bounded_distance_per_episode():
+    # a sanity number: at v_max for 150 steps the leader covers at most 0.85 * 15 = 12.75 m
+    env = FormationEnv(4, seed=0)
+    r = env.rollout(150, policy=lambda td: td.set(("agents", "action"), torch.ones(4, 5, 2)))
+    path = r["next", "state", "positions"][:, :, 0].diff(dim=1).norm(dim=-1).sum(1)
+    assert (path <= 0.85 * 15 + 1e-4).all()
+    torch.testing.assert_close(r["next", "state", "positions"][:, -1, 0], torch.full((4, 2), 3.9), atol=1e-5, rtol=0)
+    assert math.isclose(r["next", "state", "velocities"][:, -1].abs().max().item(), 0.0, abs_tol=1e-6)
+
+
+def test_compiled_step_matches_eager():
+    eager, compiled = FormationEnv(8, seed=4), FormationEnv(8, seed=4, compile_physics=True)
+    torch.manual_seed(0)
+    ra = eager.rollout(160, break_when_any_done=False)
+    torch.manual_seed(0)
+    rb = compiled.rollout(160, break_when_any_done=False)
+    for key in (("next", "agents", "observation"), ("next", "agents", "reward"), ("next", "state", "positions"),
+                ("next", "formation_error"), ("next", "obstacle_collision"), ("next", "done")):
+        torch.testing.assert_close(rb[key], ra[key], atol=1e-5, rtol=1e-5)

@@ -1,0 +1,36 @@
+"""Rendering: an RGB frame of one copy, a rollout as a GIF."""
+
+import imageio.v2 as imageio
+import numpy as np
+
+from formation_rl.envs import EnvConfig, FormationEnv
+from formation_rl.envs.render import active_pairs, role_colors, save_gif
+
+
+def test_render_frame_shows_the_world():
+    env = FormationEnv(2, seed=0)
+    env.reset()
+    frame = env.render(1)
+    assert frame.dtype == np.uint8 and frame.shape[2] == 3 and frame.shape[0] > 100
+    assert (frame < 128).any() and (frame > 200).any()  # obstacles drawn dark on a light arena
+    red = (frame[..., 0] > 180) & (frame[..., 1] < 80) & (frame[..., 2] < 80)
+    assert red.any()  # the leader
+
+
+def test_active_formation_lines_follow_the_switch():
+    import torch
+
+    cfg = EnvConfig()
+    outside = torch.tensor([[-3.5, -3.5]] + [[-3.6, -3.6]] * 4)
+    inside = torch.tensor([[0.0, 0.0]] + [[-0.4, 0.0]] * 4)
+    assert active_pairs(outside, cfg).sum() == 10  # V: every pair
+    assert active_pairs(inside, cfg).sum() == 4  # chain
+    assert role_colors(5)[1] != role_colors(5)[2]  # left and right followers differ
+
+
+def test_rollout_gif(tmp_path):
+    env = FormationEnv(2, config=EnvConfig(max_steps=6), seed=0)
+    r = env.rollout(6)
+    path = save_gif(r, tmp_path / "a.gif", env.config, index=1)
+    frames = imageio.mimread(path)
+    assert len(frames) == 7  # the reset state and 6 steps

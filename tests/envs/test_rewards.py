@@ -1,0 +1,148 @@
+"""SPEC §2 and §4: formation geometry, sparse events and guided terms, hybrid and fixed."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from tensordict import TensorDict
+
+from formation_rl.envs import EnvConfig, FormationEnv
+from formation_rl.envs import formations
+from formation_rl.envs.config import FormationConfig, RewardConfig
+
+S = 0.5 / math.sqrt(2)  # V slot offset per rank at s = 0.5, phi = 45 deg
+FAR = [[0.0, -1.5]]  # an obstacle nobody touches
+
+
+def v_slots(origin=(0.0, 3.0)):
+    """V of SPEC §2 for N = 5, written out: leader, L1, R1, L2, R2."""
+    x, y = origin
+    return [[x, y], [x - S, y + S], [x - S, y - S], [x - 2 * S, y + 2 * S], [x - 2 * S, y - 2 * S]]
+
+
+def v_dstar():
+    s = np.array(v_slots((0.0, 0.0)))
+    return np.linalg.norm(s[:, None] - s[None], axis=-1)
+
+
+def make_env(variant="hybrid"):
+    cfg = EnvConfig(num_obstacles=1, reward=RewardConfig(variant=variant) if variant == "fixed" else RewardConfig())
+    if variant == "fixed":
+        cfg.reward.area_formation = None
+    return FormationEnv(1, config=cfg, seed=0)
+
+
+def rewards_at(env, positions, goal=(3.2, 3.2), center=FAR, radius=(0.5,)):
+    """Rewards of the state reached by a zero action from rest at ``positions`` (nothing moves)."""
+    env.set_world_state(positions=[positions], velocities=torch.zeros(1, 5, 2), goal=[goal],
+                        obstacle_centers=[center], obstacle_radii=[radius])
+    td = TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1])
+    nxt = env.step(td)["next"]
+    return nxt["agents", "reward"][0, :, 0].double().numpy(), nxt
+
+
+def test_v_and_chain_desired_distances_for_five_robots():
+    d = formations.desired_distances(FormationConfig(), 5)
+    expected = {(0, 1): 0.5, (0, 2): 0.5, (0, 3): 1.0, (1, 2): math.sqrt(0.5), (1, 3): 0.5,
+                (1, 4): math.sqrt(1.25), (2, 3): math.sqrt(1.25), (3, 4): math.sqrt(2.0)}
+    for (i, j), v in expected.items():
+        assert d[i, j].item() == pytest.approx(v, abs=1e-6)
+    np.testing.assert_allclose(d.numpy(), v_dstar(), atol=1e-6)
+    chain = FormationConfig(shape="chain", spacing=0.4)
+    dc = formations.desired_distances(chain, 5)
+    assert [dc[i, i - 1].item() for i in range(1, 5)] == pytest.approx([0.4] * 4, abs=1e-6)
+    own = formations.constraints(chain, 5)
+    assert own.sum().item() == 4 and all(own[i, i - 1] for i in range(1, 5))  # predecessor only
+    assert formations.pair_mask(FormationConfig(), 5).sum().item() == 10  # V: every unordered pair
+
+
+def test_perfect_v_outside_area_gives_r2_and_guided_leader():
+    r, nxt = rewards_at(make_env(), v_slots())
+    assert r[0] == pytest.approx(-math.hypot(3.2, 0.2), abs=1e-5)  # guided: -|p_lea - p_g|
+    assert r[1:].tolist() == pytest.approx([1.0] * 4)  # R2
+    assert not nxt["in_obstacle_area"].item()
+    assert nxt["formation_error"].item() == pytest.approx(0.0, abs=1e-5)
+
+
+def test_leader_at_goal_gets_r1():
+    r, _ = rewards_at(make_env(), v_slots(), goal=(0.0, 3.0))
+    assert r[0] == pytest.approx(10.0)
+
+
+def test_perturbed_v_guided_followers_sum_all_constraints():
+    p = v_slots()
+    p[3][0] += 0.1  # L2 moved
+    r, nxt = rewards_at(make_env(), p)
+    pa = np.array(p)
+    err = np.abs(np.linalg.norm(pa[:, None] - pa[None], axis=-1) - v_dstar())
+    held = [np.all(err[i, np.arange(5) != i] <= 0.05) for i in range(5)]
+    assert held[1:] == [False, True, False, True]  # L1 and L2 miss a constraint; R1, R2 still hold
+    for i in (1, 3):
+        assert r[i] == pytest.approx(-err[i].sum(), abs=1e-5)
+    assert r[2] == r[4] == 1.0
+    assert nxt["formation_error"].item() == pytest.approx(np.triu(err, 1).sum(), abs=1e-5)
+
+
+def chain_line(dx=(0.0, -0.4, -1.0, -1.4, -1.8)):
+    return [[x, 0.0] for x in dx]  # leader at the origin, inside the obstacle area
+
+
+def test_chain_inside_area_with_hybrid_reward():
+    r, nxt = rewards_at(make_env(), chain_line(), center=[[2.5, 1.5]])
+    assert nxt["in_obstacle_area"].item()
+    assert r[0] == pytest.approx(-math.hypot(3.2, 3.2), abs=1e-5)
+    assert r[1] == 1.0 and r[3] == 1.0 and r[4] == 1.0  # R3: predecessor at 0.4
+    assert r[2] == pytest.approx(-0.2, abs=1e-5)  # guided: -|d_{2,1} - s_chain| = -|0.6 - 0.4|
+    assert nxt["formation_error"].item() == pytest.approx(0.2, abs=1e-5)  # chain pairs only
+
+
+def test_fixed_reward_keeps_v_inside_area():
+    p = chain_line()
+    r, nxt = rewards_at(make_env("fixed"), p, center=[[2.5, 1.5]])
+    assert nxt["in_obstacle_area"].item()
+    pa = np.array(p)
+    err = np.abs(np.linalg.norm(pa[:, None] - pa[None], axis=-1) - v_dstar())
+    assert r[1:].tolist() == pytest.approx([-err[i].sum() for i in range(1, 5)], abs=1e-5)
+    assert nxt["formation_error"].item() == pytest.approx(np.triu(err, 1).sum(), abs=1e-5)
+
+
+def test_area_is_strict():
+    p = [[x - 3.0, y] for x, y in chain_line()]  # leader exactly on the area's edge x = -3
+    _, nxt = rewards_at(make_env(), p, center=[[2.5, 1.5]])
+    assert not nxt["in_obstacle_area"].item()
+    p = [[x - 2.99, y] for x, y in chain_line()]
+    _, nxt = rewards_at(make_env(), p, center=[[2.5, 1.5]])
+    assert nxt["in_obstacle_area"].item()
+
+
+def test_obstacle_collision_replaces_guided_and_sums_with_other_events():
+    p = v_slots()
+    # obstacle surface 0.05 from the leader's surface: gap 0.05 < rho_o
+    r, nxt = rewards_at(make_env(), p, center=[[0.65, 3.0]], radius=(0.5,))
+    assert nxt["obstacle_collision"].item()
+    assert r[0] == pytest.approx(-20.0)  # R4 replaces guided
+    assert r[1:].tolist() == pytest.approx([1.0] * 4)
+    # a follower in formation that also hits the obstacle: R2 + R4
+    p = v_slots((0.0, 3.0))
+    r, _ = rewards_at(make_env(), p, center=[[-S - 0.65, 3.0 + S]], radius=(0.5,))
+    assert r[1] == pytest.approx(1.0 - 20.0)
+
+
+def test_robot_collisions():
+    p = v_slots()
+    p[2] = [p[1][0] + 0.25, p[1][1]]  # R1 0.25 from L1: |d| - 2r = 0.05 < rho_r
+    r, nxt = rewards_at(make_env(), p)
+    assert nxt["robot_collision"].item()
+    assert r[1] == pytest.approx(-10.0) and r[2] == pytest.approx(-10.0)  # R5 (no formation bonus: broken)
+    p = v_slots()
+    p[1] = [0.0 - 0.2, 3.0 + 0.1]  # L1 onto the leader
+    r, _ = rewards_at(make_env(), p, center=[[0.65, 3.0]])
+    assert r[0] == pytest.approx(-10.0 - 20.0)  # R4 + R5 for the leader
+
+
+def test_spacing_of_exactly_the_margin_is_not_a_collision():
+    p = v_slots()
+    p[2] = [p[1][0] + 0.3125, p[1][1]]  # 0.3125 - 0.2 = 0.1125 >= rho_r
+    _, nxt = rewards_at(make_env(), p)
+    assert not nxt["robot_collision"].item()
