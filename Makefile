@@ -27,7 +27,7 @@ test-slow: $(PY)  ## the long checks marked slow (10^6 random steps ...)
 	$(PY) -m pytest -q -m slow
 
 bench-env: $(PY)  ## environment throughput, frames/s for B in {1, 64, 1024, 4096}
-	$(PY) benchmarks/env_throughput.py $(ARGS)
+	$(PY) benchmarks/env_throughput.py --json benchmarks/env_throughput.json $(ARGS)
 
 lint: $(PY)  ## ruff
 	$(VENV)/bin/ruff check formation_rl tests benchmarks

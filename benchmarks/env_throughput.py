@@ -23,7 +23,6 @@ import torch
 
 from formation_rl.envs import FormationEnv
 
-
 REPEATS = 5  # the median of this many timed blocks: this machine's timings vary run to run
 
 
@@ -67,6 +66,14 @@ def vmas_env(batch: int):
         return None
 
 
+def _fmt(x: float | None) -> str:
+    return f"{x:,.0f}" if x else "n/a"
+
+
+def _ratio(x: float | None, base: float | None) -> str:
+    return f"{x / base:.1f}x" if x and base else "n/a"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batch", type=int, nargs="+", default=[1, 64, 1024, 4096])
@@ -90,14 +97,8 @@ def main() -> None:
         venv = vmas_env(b)
         row["vmas"] = step_loop(venv, max(steps // 4, 10)) if venv is not None else None
 
-        def fmt(x):
-            return f"{x:,.0f}" if x else "n/a"
-
-        def ratio(x):
-            return f"{x / row['vmas']:.1f}x" if x and row["vmas"] else "n/a"
-
-        print(f"| {b} | {fmt(row['step'])} | {fmt(row['rollout'])} | {fmt(row['compiled'])} | {fmt(row['vmas'])} "
-              f"| {ratio(row['step'])} | {ratio(row['compiled'])} |", flush=True)
+        print(f"| {b} | {_fmt(row['step'])} | {_fmt(row['rollout'])} | {_fmt(row['compiled'])} | {_fmt(row['vmas'])} "
+              f"| {_ratio(row['step'], row['vmas'])} | {_ratio(row['compiled'], row['vmas'])} |", flush=True)
         rows.append(row)
     if args.json:
         with open(args.json, "w") as f:

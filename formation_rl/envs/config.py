@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 FORMATION_SHAPES = ("v", "chain")
 REWARD_VARIANTS = ("hybrid", "fixed")
@@ -133,20 +134,21 @@ class EnvConfig:
         )
         inner = self.arena_half_size - self.robot_radius
         _check(inner, "robot_radius", _positive, f"smaller than arena_half_size ({self.arena_half_size})")
+        a = self.arena_half_size
         for name in ("obstacle_area_x", "obstacle_area_y"):
-            lo_hi = getattr(self, name)
             _check(
-                lo_hi,
+                getattr(self, name),
                 name,
-                lambda v: len(v) == 2 and all(map(_finite, v)) and -self.arena_half_size <= v[0] < v[1] <= self.arena_half_size,
-                f"a pair (low, high) with -{self.arena_half_size} <= low < high <= {self.arena_half_size}",
+                lambda v: len(v) == 2 and all(map(_finite, v)) and -a <= v[0] < v[1] <= a,
+                f"a pair (low, high) with -{a} <= low < high <= {a}",
             )
         for lo, hi in (("goal_low", "goal_high"), ("start_low", "start_high")):
+            high = getattr(self, hi)
             _check(
                 getattr(self, lo),
                 lo,
-                lambda v: _finite(v) and -inner <= v <= getattr(self, hi) <= inner,
-                f"low <= {hi} ({getattr(self, hi)}), both inside the arena [-{inner}, {inner}]",
+                lambda v, high=high: _finite(v) and _finite(high) and -inner <= v <= high <= inner,
+                f"low <= {hi} ({high}), both inside the arena [-{inner}, {inner}]",
             )
         _check_formation(self.formation, "formation")
         r = self.reward

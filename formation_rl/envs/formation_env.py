@@ -176,6 +176,15 @@ class FormationEnv(EnvBase):
         out.set("truncated", done.clone())
         return out
 
+    def rand_action(self, tensordict: TensorDictBase | None = None) -> TensorDictBase:
+        """Uniform random actions in [-1, 1] from torch's global RNG, as ``full_action_spec.rand()``
+        would draw them, with one ``torch.rand`` instead of the generic spec sampler (2-3x cheaper)."""
+        action = torch.rand(self.num_envs, self.config.num_robots, 2, device=self.device).mul_(2.0).sub_(1.0)
+        if tensordict is None:
+            tensordict = TensorDict(batch_size=self.batch_size, device=self.device)
+        tensordict.set(("agents", "action"), action)
+        return tensordict
+
     def _set_seed(self, seed: int | None) -> None:
         if seed is not None:
             self._generator.manual_seed(seed)

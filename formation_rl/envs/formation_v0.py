@@ -7,7 +7,6 @@ config fields). Hand-written because TorchRL only wraps PettingZoo envs, not the
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import numpy as np
 import torch
@@ -46,7 +45,6 @@ class FormationParallelEnv(ParallelEnv):
         self._act_space = {a: spaces.Box(-1.0, 1.0, (2,), np.float32) for a in self.possible_agents}
         self._td: TensorDict | None = None
 
-    @functools.lru_cache(maxsize=None)
     def observation_space(self, agent: str) -> spaces.Box:
         return self._obs_space
 
@@ -81,7 +79,7 @@ class FormationParallelEnv(ParallelEnv):
             self.agents = []
         return (
             obs,
-            {a: float(r) for a, r in zip(agents, reward)},
+            {a: float(r) for a, r in zip(agents, reward, strict=True)},
             {a: term for a in agents},
             {a: trunc for a in agents},
             {a: dict(info) for a in agents},
@@ -104,7 +102,9 @@ class FormationParallelEnv(ParallelEnv):
         pass
 
 
-def parallel_env(render_mode: str | None = None, config: EnvConfig | dict | None = None, **fields) -> FormationParallelEnv:
+def parallel_env(
+    render_mode: str | None = None, config: EnvConfig | dict | None = None, **fields
+) -> FormationParallelEnv:
     """The formation world as a PettingZoo ``ParallelEnv``; ``fields`` override ``EnvConfig`` fields."""
     return FormationParallelEnv(render_mode=render_mode, config=config, **fields)
 

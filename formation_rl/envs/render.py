@@ -43,12 +43,12 @@ def draw_state(ax, state: TensorDictBase, cfg: EnvConfig, title: str | None = No
     ax.add_patch(plt.Rectangle((-a, -a), 2 * a, 2 * a, fill=False, lw=1.5, color="black"))
     (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
     ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, color="#f5deb3", alpha=0.5, lw=0))
-    for c, r in zip(state["obstacle_centers"].cpu().tolist(), state["obstacle_radii"].cpu().tolist()):
+    for c, r in zip(state["obstacle_centers"].cpu().tolist(), state["obstacle_radii"].cpu().tolist(), strict=True):
         ax.add_patch(plt.Circle(c, r, color="#555555"))
     g = state["goal"].cpu().tolist()
     ax.add_patch(plt.Circle(g, max(cfg.goal_radius, 0.08), color="gold", ec="black", lw=0.8, zorder=3))
     for i, j in torch.nonzero(active_pairs(pos, cfg)).tolist():
-        ax.plot(*zip(pos[i].tolist(), pos[j].tolist()), color="#888888", lw=1, zorder=4)
+        ax.plot(*zip(pos[i].tolist(), pos[j].tolist(), strict=True), color="#888888", lw=1, zorder=4)
     colors = role_colors(n)
     for i in range(n):
         ax.add_patch(plt.Circle(pos[i].tolist(), cfg.robot_radius, color=colors[i], zorder=5))

@@ -6,7 +6,7 @@ copies or robots.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import torch
 

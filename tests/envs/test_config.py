@@ -65,7 +65,7 @@ BAD = [
 ]
 
 
-@pytest.mark.parametrize("fields,names,allowed", BAD, ids=[next(iter(f)) + "-" + str(i) for i, (f, _, _) in enumerate(BAD)])
+@pytest.mark.parametrize("fields,names,allowed", BAD, ids=[f"{next(iter(f))}-{i}" for i, (f, _, _) in enumerate(BAD)])
 def test_bad_config_raises_one_line_value_error(fields, names, allowed):
     with pytest.raises(ValueError) as err:
         FormationEnv(2, config=dataclasses.replace(EnvConfig(), **fields))
@@ -83,5 +83,6 @@ def test_unknown_field_and_bad_num_envs():
 
 def test_config_dict_and_omegaconf_equivalent():
     node = OmegaConf.create({"num_robots": 3, "formation": {"shape": "chain", "spacing": 0.3}})
-    assert EnvConfig.from_dict(node) == EnvConfig.from_dict({"num_robots": 3, "formation": {"shape": "chain", "spacing": 0.3}})
+    plain = {"num_robots": 3, "formation": {"shape": "chain", "spacing": 0.3}}
+    assert EnvConfig.from_dict(node) == EnvConfig.from_dict(plain)
     assert FormationEnv(1, config=node).config.obs_dim == 4 + 4 + 12 + 1

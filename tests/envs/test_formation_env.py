@@ -4,7 +4,6 @@ import math
 
 import pytest
 import torch
-from tensordict import TensorDict
 from torchrl.envs.utils import check_env_specs
 
 from formation_rl.envs import EnvConfig, FormationEnv
@@ -174,3 +173,11 @@ def test_compiled_step_matches_eager():
     for key in (("next", "agents", "observation"), ("next", "agents", "reward"), ("next", "state", "positions"),
                 ("next", "formation_error"), ("next", "obstacle_collision"), ("next", "done")):
         torch.testing.assert_close(rb[key], ra[key], atol=1e-5, rtol=1e-5)
+
+
+def test_rand_action_is_uniform_in_bounds():
+    env = FormationEnv(256, seed=0)
+    a = env.rand_action()["agents", "action"]
+    assert a.shape == (256, 5, 2) and a.min() >= -1 and a.max() <= 1
+    assert env.full_action_spec["agents", "action"].is_in(a)
+    assert a.mean().abs() < 0.05 and abs(a.std().item() - 3**-0.5) < 0.02  # U(-1, 1): mean 0, std 1/sqrt(3)

@@ -25,7 +25,7 @@ def test_agents_spaces_and_episode_end():
     assert env.agents == ["leader", "follower_1", "follower_2", "follower_3", "follower_4"]
     assert obs["leader"].shape == (25,) and obs["leader"].dtype == np.float32
     assert env.action_space("follower_2").shape == (2,)
-    for t in range(5):
+    for _ in range(5):
         obs, rew, term, trunc, info = env.step({a: env.action_space(a).sample() for a in env.agents})
     assert all(trunc.values()) and not any(term.values()) and env.agents == []
     assert set(info["leader"]) >= {"robot_collision", "obstacle_collision", "goal_distance", "formation_error"}

@@ -7,8 +7,7 @@ import pytest
 import torch
 from tensordict import TensorDict
 
-from formation_rl.envs import EnvConfig, FormationEnv
-from formation_rl.envs import formations
+from formation_rl.envs import EnvConfig, FormationEnv, formations
 from formation_rl.envs.config import FormationConfig, RewardConfig
 
 S = 0.5 / math.sqrt(2)  # V slot offset per rank at s = 0.5, phi = 45 deg
