@@ -1,0 +1,102 @@
+"""What MADDPG, MATD3 and PER-MATD3 share: TorchRL loss, optimisers, soft targets, one update step."""
+
+from __future__ import annotations
+
+import torch
+from tensordict import TensorDictBase
+from torchrl.objectives import LossModule, SoftUpdate, ValueEstimators
+
+from formation_rl.config import AlgoConfig
+
+KEYS = dict(
+    action=("agents", "action"),
+    state_action_value=("agents", "state_action_value"),
+    reward=("agents", "reward"),
+    done=("agents", "done"),
+    terminated=("agents", "terminated"),
+)
+PRIORITY_KEY = "td_error"  # where |delta| [B, N] goes for the prioritized buffer (eq. 17)
+WEIGHT_KEY = "priority_weight"  # importance weights [B] from the prioritized buffer (eq. 20)
+
+
+class Algorithm:
+    """Centralized-critic actor-critic on a TorchRL loss; subclasses build the loss.
+
+    The losses run with ``reduction="none"`` and TorchRL's own weighting off, so that the
+    importance weights enter exactly as eq. 21-22 write them: ``mean_b w_b * delta_b^2``.
+    """
+
+    loss: LossModule
+    critic_params_name: str  # "value_network_params" (DDPG) or "qvalue_network_params" (TD3)
+
+    def __init__(self, cfg: AlgoConfig):
+        self.cfg = cfg
+        self.loss.set_keys(**{k: v for k, v in KEYS.items() if k in self.loss._AcceptedKeys.__dataclass_fields__})
+        self.loss.make_value_estimator(ValueEstimators.TD0, gamma=cfg.gamma)
+        self.actor_params = [p for p in self.loss.actor_network_params.values(True, True) if p.requires_grad]
+        critic = getattr(self.loss, self.critic_params_name)
+        self.critic_params = [p for p in critic.values(True, True) if p.requires_grad]
+        self.actor_optim = torch.optim.Adam(self.actor_params, lr=cfg.lr_actor)
+        self.critic_optim = torch.optim.Adam(self.critic_params, lr=cfg.lr_critic)
+        self.target_updater = SoftUpdate(self.loss, tau=cfg.tau)
+        self.critic_steps = 0
+        self.actor_steps = 0
+
+    # ------------------------------------------------------------------ one gradient step
+    def update(self, batch: TensorDictBase) -> dict[str, torch.Tensor]:
+        """One critic step (and, every ``policy_delay`` of them, one actor step and target update).
+
+        Writes ``|delta|`` ``[B, N]`` (max over critics) at ``PRIORITY_KEY`` in ``batch``.
+        """
+        weights = batch.get(WEIGHT_KEY, None)  # [B], normalised by their max (eq. 20)
+        per_sample, meta = self._critic_loss(batch.exclude(WEIGHT_KEY))  # [B, N], summed over critics
+        if weights is not None:
+            critic_loss = (per_sample * weights.unsqueeze(-1)).mean()  # eq. 21-22
+        else:
+            critic_loss = per_sample.mean()
+        self.critic_optim.zero_grad(set_to_none=True)
+        critic_loss.backward()
+        self.critic_optim.step()
+        self.critic_steps += 1
+
+        pred, target = meta["pred_value"], meta["target_value"]  # [C, B, N] or [B, N]; [B, N]
+        td_error = (pred - target).abs()
+        if td_error.dim() == 3:
+            td_error = td_error.amax(0)  # max over the twin critics (eq. 17)
+        batch.set(PRIORITY_KEY, td_error.detach())
+        out = {"loss_critic": critic_loss.detach(), "q_value": pred.mean().detach(),
+               "td_error": td_error.mean().detach()}
+
+        if self.critic_steps % self.cfg.policy_delay == 0:
+            # actor loss without importance weights: eq. 21-22 weight the critic losses only
+            actor_loss = self._actor_loss(batch.exclude(WEIGHT_KEY, PRIORITY_KEY))[0].mean()
+            self.actor_optim.zero_grad(set_to_none=True)
+            actor_loss.backward()
+            self.actor_optim.step()
+            self.actor_steps += 1
+            self.target_updater.step()
+            out["loss_actor"] = actor_loss.detach()
+        return out
+
+    def _critic_loss(self, batch: TensorDictBase):
+        return self.loss.value_loss(batch)
+
+    def _actor_loss(self, batch: TensorDictBase):
+        return self.loss.actor_loss(batch)
+
+    # ------------------------------------------------------------------ checkpoints
+    def state_dict(self) -> dict:
+        return {
+            "loss": self.loss.state_dict(),
+            "actor_optim": self.actor_optim.state_dict(),
+            "critic_optim": self.critic_optim.state_dict(),
+            "critic_steps": self.critic_steps,
+            "actor_steps": self.actor_steps,
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        self.loss.load_state_dict(state["loss"])
+        self.actor_optim.load_state_dict(state["actor_optim"])
+        self.critic_optim.load_state_dict(state["critic_optim"])
+        self.critic_steps = state["critic_steps"]
+        self.actor_steps = state["actor_steps"]

@@ -1,0 +1,105 @@
+"""Typed training configuration (Hydra ConfigStore schema). Defaults are SPEC §5 unless marked choice.
+
+``conf/config.yaml`` and the ``conf/algo/`` and ``conf/budget/`` groups fill these; a misspelt key
+or a wrong type fails at start with Hydra's message, an out-of-range value with ``validate``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from hydra.core.config_store import ConfigStore
+
+from formation_rl.envs.config import EnvConfig
+
+ALGORITHMS = ("maddpg", "matd3", "per_matd3")
+
+
+@dataclass
+class ModelConfig:
+    hidden: list[int] = field(default_factory=lambda: [128, 128])  # actor and critic hidden layers (paper)
+    activation: str = "relu"  # (paper)
+
+
+@dataclass
+class AlgoConfig:
+    name: str = "per_matd3"  # maddpg | matd3 | per_matd3
+    num_critics: int = 2  # twin critics, target = min of the two (eq. 7); 1 for MADDPG
+    policy_noise: float = 0.2  # target policy smoothing N(0, lambda) (eq. 8, paper lambda = 0.2); 0 for MADDPG
+    noise_clip: float = 0.5  # clip of that noise (eq. 8)
+    policy_delay: int = 2  # d: actor and target update every d critic steps
+    prioritized: bool = True  # PER (section 3.3)
+    alpha: float = 0.6  # priority exponent (paper)
+    beta: float = 0.5  # importance-sampling exponent (paper)
+    beta_final: float | None = None  # anneal beta linearly to this by the end of training (choice; None: constant)
+    priority_eps: float = 1e-6  # p = (max |delta| + eps)^alpha (choice)
+    lr_actor: float = 1e-3  # (paper)
+    lr_critic: float = 1e-3  # (paper)
+    gamma: float = 0.95  # (paper)
+    tau: float = 0.01  # soft target update (choice)
+    batch_size: int = 1024  # (paper)
+    buffer_size: int = 1_000_000  # (paper)
+    update_every: int = 100  # collected frames per gradient step (paper: update every 100 steps)
+    warmup_frames: int = 10_000  # uniform random actions before the first update (choice)
+    exploration_sigma: float = 0.3  # Gaussian exploration noise on the collection policy, start (choice)
+    exploration_sigma_end: float = 0.05  # ... end (choice)
+    exploration_anneal: float = 0.5  # fraction of total_frames over which sigma anneals (choice)
+
+
+@dataclass
+class TrainConfig:
+    env: EnvConfig = field(default_factory=EnvConfig)
+    algo: AlgoConfig = field(default_factory=AlgoConfig)
+    model: ModelConfig = field(default_factory=ModelConfig)
+    seed: int = 0  # training seed: networks, exploration and training scenarios
+    total_frames: int = 300_000  # frames = transitions of one env copy (SPEC §5); paper: 9,000,000
+    num_envs: int = 64  # env copies stepped together by the collector
+    steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames
+    device: str = "cpu"  # cpu | cuda | cuda:0 ...
+    compile_env: bool = False  # torch.compile the env's step program (faster at large num_envs)
+    eval_interval: int = 100_000  # frames between deterministic evaluations (and at the end)
+    eval_episodes: int = 100  # held-out episodes per evaluation, run as that many batched copies
+    eval_seed: int = 1_000_000_007  # scenario seed of the evaluation set, disjoint from training seeds
+    checkpoint_interval: int = 100_000  # frames between checkpoints (and at the end)
+    save_buffer: bool = False  # also checkpoint the replay buffer (large: ~1 kB per frame)
+    resume: str | None = None  # a checkpoint file or run directory to continue from; "auto": this run's
+    progress: bool = True  # progress bar
+
+
+def register() -> None:
+    ConfigStore.instance().store(name="train_schema", node=TrainConfig)
+
+
+def validate(cfg: TrainConfig) -> None:
+    """One ``ValueError`` per bad value, naming the field, the value and what is allowed."""
+    a = cfg.algo
+
+    def check(ok: bool, name: str, value, allowed: str) -> None:
+        if not ok:
+            raise ValueError(f"{name} = {value!r} is invalid: must be {allowed}")
+
+    check(a.name in ALGORITHMS, "algo.name", a.name, f"one of {', '.join(ALGORITHMS)}")
+    check(a.num_critics in (1, 2), "algo.num_critics", a.num_critics, "1 or 2")
+    for name in ("lr_actor", "lr_critic"):
+        check(getattr(a, name) > 0, f"algo.{name}", getattr(a, name), "> 0")
+    for name in ("gamma", "tau", "alpha", "beta"):
+        check(0 <= getattr(a, name) <= 1, f"algo.{name}", getattr(a, name), "in [0, 1]")
+    check(a.beta_final is None or 0 <= a.beta_final <= 1, "algo.beta_final", a.beta_final, "null or in [0, 1]")
+    check(a.priority_eps > 0, "algo.priority_eps", a.priority_eps, "> 0")
+    check(a.policy_noise >= 0 and a.noise_clip >= 0, "algo.policy_noise", a.policy_noise, ">= 0 (noise_clip too)")
+    check(a.policy_delay >= 1, "algo.policy_delay", a.policy_delay, "an integer >= 1")
+    check(a.batch_size >= 1, "algo.batch_size", a.batch_size, "an integer >= 1")
+    check(a.buffer_size >= a.batch_size, "algo.buffer_size", a.buffer_size, f">= algo.batch_size ({a.batch_size})")
+    check(a.update_every >= 1, "algo.update_every", a.update_every, "an integer >= 1")
+    check(a.warmup_frames >= 0, "algo.warmup_frames", a.warmup_frames, ">= 0")
+    check(a.exploration_sigma >= a.exploration_sigma_end >= 0, "algo.exploration_sigma", a.exploration_sigma,
+          f">= exploration_sigma_end ({a.exploration_sigma_end}) >= 0")
+    check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")
+    check(len(cfg.model.hidden) >= 1 and all(h >= 1 for h in cfg.model.hidden), "model.hidden", cfg.model.hidden,
+          "a non-empty list of positive layer sizes")
+    check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
+    check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")
+    check(cfg.steps_per_batch >= 1, "steps_per_batch", cfg.steps_per_batch, "an integer >= 1")
+    for name in ("eval_interval", "checkpoint_interval", "eval_episodes"):
+        check(getattr(cfg, name) >= 1, name, getattr(cfg, name), "an integer >= 1")
+    check(cfg.device == "cpu" or cfg.device.startswith("cuda"), "device", cfg.device, "cpu, cuda or cuda:<index>")

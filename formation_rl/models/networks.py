@@ -1,0 +1,84 @@
+"""Per-robot networks with no parameter sharing, evaluated for all robots in one batched matmul.
+
+Hand-written instead of ``MultiAgentMLP(centralized=True)`` for one reason of correctness and one of
+speed: in MADDPG/MATD3 the actor of robot i climbs its *own* critic Q_i through its own action a_i
+only (paper §3, Fig. 4), which a critic fed one shared input cannot express; and one
+``baddbmm`` per layer serves every robot (and, under the losses' vmap, both twin critics).
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from tensordict.nn import TensorDictModule
+from torch import nn
+from torchrl.modules import ValueOperator
+
+ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "leaky_relu": nn.LeakyReLU}
+
+
+class PerRobotMLP(nn.Module):
+    """N independent MLPs ``in -> hidden... -> out``, input ``[..., N, in]``, output ``[..., N, out]``."""
+
+    def __init__(self, num_robots: int, in_features: int, out_features: int, hidden: tuple[int, ...] = (128, 128),
+                 activation: str = "relu"):
+        super().__init__()
+        if activation not in ACTIVATIONS:
+            raise ValueError(f"model.activation = {activation!r} is invalid: must be one of {', '.join(ACTIVATIONS)}")
+        sizes = [in_features, *hidden, out_features]
+        self.num_robots = num_robots
+        self.weights = nn.ParameterList()
+        self.biases = nn.ParameterList()
+        for fan_in, fan_out in zip(sizes[:-1], sizes[1:], strict=True):
+            bound = 1.0 / math.sqrt(fan_in)  # nn.Linear's default initialisation, per robot
+            self.weights.append(nn.Parameter(torch.empty(num_robots, fan_in, fan_out).uniform_(-bound, bound)))
+            self.biases.append(nn.Parameter(torch.empty(num_robots, 1, fan_out).uniform_(-bound, bound)))
+        self.activation = ACTIVATIONS[activation]()
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        lead, (n, d) = x.shape[:-2], x.shape[-2:]
+        h = x.reshape(-1, n, d).transpose(0, 1)  # [N, B, in]
+        last = len(self.weights) - 1
+        for k, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
+            h = torch.baddbmm(b, h, w)  # [N, B, out_k]: robot i's layer on robot i's rows
+            if k < last:
+                h = self.activation(h)
+        return h.transpose(0, 1).reshape(*lead, n, -1)
+
+
+class CentralizedCritic(nn.Module):
+    """Q_i(o_1..o_N, a_1..a_N) for every robot i, each robot with its own MLP (SPEC §5, CTDE).
+
+    Critic i sees every observation and action; gradients reach the actions only through a_i
+    (the others enter detached), so ``-sum_i Q_i`` trains actor i on its own critic, as in MADDPG.
+    """
+
+    def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
+                 activation: str = "relu"):
+        super().__init__()
+        self.mlp = PerRobotMLP(num_robots, num_robots * (obs_dim + action_dim), 1, hidden, activation)
+        self.register_buffer("own", torch.eye(num_robots)[..., None], persistent=False)  # [N(critic), N(robot), 1]
+
+    def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        n = observation.shape[-2]
+        live = action.unsqueeze(-3)  # [..., 1, N, 2]
+        dead = live.detach()
+        actions = dead + self.own * (live - dead)  # [..., N(critic), N(robot), 2], values all equal a
+        joint_obs = observation.flatten(-2).unsqueeze(-2).expand(*observation.shape[:-2], n, -1)
+        return self.mlp(torch.cat([joint_obs, actions.flatten(-2)], -1))  # [..., N, 1]
+
+
+def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu") -> TensorDictModule:
+    """Deterministic per-robot actors ``o_i -> tanh(mu_i(o_i))`` in [-1, 1]^2 (decentralized execution)."""
+    net = nn.Sequential(PerRobotMLP(num_robots, obs_dim, 2, tuple(hidden), activation), nn.Tanh())
+    return TensorDictModule(net, in_keys=[("agents", "observation")], out_keys=[("agents", "action")])
+
+
+def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu") -> ValueOperator:
+    """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``."""
+    return ValueOperator(
+        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation),
+        in_keys=[("agents", "observation"), ("agents", "action")],
+        out_keys=[("agents", "state_action_value")],
+    )

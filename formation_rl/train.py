@@ -1,0 +1,40 @@
+"""Train MADDPG / MATD3 / PER-MATD3: ``python -m formation_rl.train algo=per_matd3 [overrides]``.
+
+Writes TensorBoard events (``tb/``), checkpoints (``checkpoints/last.pt``, ``checkpoints/policy.pt``)
+and the final evaluation (``metrics.json``) into the Hydra run directory.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig
+
+from formation_rl.cli import one_line_errors
+from formation_rl.config import register
+from formation_rl.trainer import Trainer
+
+register()
+
+
+@hydra.main(config_path="../conf", config_name="config", version_base=None)
+@one_line_errors
+def main(cfg: DictConfig) -> float:
+    run_dir = Path(HydraConfig.get().runtime.output_dir)
+    trainer = Trainer(cfg, run_dir)
+    if cfg.resume:
+        trainer.load_checkpoint(cfg.resume)
+    metrics = trainer.train()
+    (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    width = max(map(len, metrics))
+    print(f"final evaluation ({cfg.eval_episodes} held-out episodes):")
+    print("\n".join(f"  {k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
+    print(f"run directory: {run_dir}")
+    return metrics["episode_reward"]
+
+
+if __name__ == "__main__":
+    main()

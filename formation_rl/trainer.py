@@ -1,0 +1,278 @@
+"""The training loop: collect -> extend -> sample -> losses -> optimisers -> soft update -> priorities -> log.
+
+One :class:`Trainer` per run directory; ``train()`` runs to ``total_frames``, evaluating and
+checkpointing on the way. Everything a resume needs is in ``checkpoints/last.pt``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import random
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from omegaconf import DictConfig, OmegaConf
+from tensordict.nn import TensorDictSequential
+from torchrl.collectors import Collector
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+from torchrl.modules import AdditiveGaussianModule
+from torchrl.record.loggers.tensorboard import TensorboardLogger
+from tqdm import tqdm
+
+import formation_rl
+from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, make_algorithm
+from formation_rl.config import TrainConfig, validate
+from formation_rl.envs import EnvConfig, FormationEnv
+from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
+from formation_rl.models import make_actor, make_critic
+from formation_rl.replay import make_replay_buffer, to_transitions
+
+CHECKPOINT = "checkpoints/last.pt"
+POLICY = "checkpoints/policy.pt"
+FORMAT = 1  # checkpoint format version
+
+
+def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
+    """A typed ``TrainConfig`` from Hydra's config (or a plain dict); the env part validated."""
+    if isinstance(cfg, TrainConfig):
+        return cfg
+    if isinstance(cfg, DictConfig):
+        cfg = OmegaConf.to_container(cfg, resolve=True)
+    cfg = dict(cfg)
+    out = TrainConfig(**{k: v for k, v in cfg.items() if k not in ("env", "algo", "model")})
+    out.env = EnvConfig.from_dict(cfg.get("env", {}))
+    out.algo = dataclasses.replace(out.algo, **cfg.get("algo", {}))
+    out.model = dataclasses.replace(out.model, **cfg.get("model", {}))
+    return out
+
+
+def atomic_save(obj, path: Path) -> None:
+    """``torch.save`` to a temporary file, then rename: a crash never leaves a half-written file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    torch.save(obj, tmp)
+    os.replace(tmp, path)
+
+
+class Trainer:
+    def __init__(self, cfg: TrainConfig | DictConfig | dict, run_dir: str | Path):
+        cfg = to_train_config(cfg)
+        validate(cfg)
+        cfg.env.validate()
+        self.cfg, self.run_dir = cfg, Path(run_dir)
+        a = cfg.algo
+        self._seed_everything(cfg.seed)
+        dev = torch.device(cfg.device)
+        self.env = FormationEnv(cfg.num_envs, config=cfg.env, device=dev, seed=cfg.seed,
+                                compile_physics=cfg.compile_env)
+        self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
+        n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
+        self.actor = make_actor(n, d, hidden, cfg.model.activation).to(dev)
+        critic = make_critic(n, d, hidden, cfg.model.activation).to(dev)
+        self.algo = make_algorithm(self.actor, critic, a)
+        # exploration noise on the collection policy only (evaluation and targets use self.actor)
+        self.noise = AdditiveGaussianModule(
+            spec=self.env.full_action_spec_unbatched[("agents", "action")].to(dev), sigma_init=a.exploration_sigma,
+            sigma_end=a.exploration_sigma_end, annealing_num_steps=max(1, int(a.exploration_anneal * cfg.total_frames)),
+            action_key=("agents", "action"), safe=True, device=dev,
+        )
+        self.explore = TensorDictSequential(self.actor, self.noise)
+        self.buffer = make_replay_buffer(a, dev)
+        self.tracker = EpisodeTracker(cfg.num_envs, cfg.env.goal_radius, dev)
+        self.frames = self.episodes = 0
+        self.next_eval, self.next_checkpoint = cfg.eval_interval, cfg.checkpoint_interval
+        self.last_eval: dict[str, float] = {}
+        self.logger: TensorboardLogger | None = None
+
+    # ------------------------------------------------------------------ the loop
+    def train(self) -> dict[str, float]:
+        """Train to ``total_frames``; return the final evaluation's metrics."""
+        cfg, a = self.cfg, self.cfg.algo
+        self.logger = TensorboardLogger(exp_name="tb", log_dir=str(self.run_dir))
+        remaining = cfg.total_frames - self.frames
+        per_batch = cfg.num_envs * cfg.steps_per_batch
+        learn_from = max(a.batch_size, a.warmup_frames)  # no update before the buffer holds this much
+        batches = -(-max(remaining, 1) // per_batch)  # whole collector batches (the last one may overshoot)
+        random_batches = -(-max(0, a.warmup_frames - self.frames) // per_batch)
+        collector = Collector(
+            self.env, self.explore, frames_per_batch=per_batch, total_frames=batches * per_batch,
+            init_random_frames=random_batches * per_batch, device=cfg.device, auto_register_policy_transforms=False,
+        )
+        bar = tqdm(total=cfg.total_frames, initial=self.frames, unit="frame", unit_scale=True,
+                   disable=not cfg.progress, desc=a.name, dynamic_ncols=True)
+        credit, start, steps0 = 0, time.perf_counter(), self.algo.critic_steps
+        latest: dict[str, float] = {}
+        try:
+            for data in collector:
+                if self.frames >= cfg.total_frames:
+                    break
+                self.frames += data.numel()
+                finished = self.tracker.update(data)
+                self.episodes += finished["length"].numel()
+                self.buffer.extend(to_transitions(data))
+                # one gradient step (every robot at once) per update_every collected frames
+                credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
+                losses = []
+                while credit >= a.update_every:
+                    credit -= a.update_every
+                    losses.append(self._gradient_step())
+                self.noise.step(data.numel())
+                latest = self._log_train(finished, losses, latest, start, steps0)
+                if self.frames >= self.next_eval:
+                    self.evaluate()
+                    self.next_eval += cfg.eval_interval
+                if self.frames >= self.next_checkpoint:
+                    self.save_checkpoint()
+                    self.next_checkpoint += cfg.checkpoint_interval
+                bar.update(data.numel())
+                bar.set_postfix(self._postfix(latest, start), refresh=False)
+        finally:
+            collector.shutdown()
+            bar.close()
+        final = self.evaluate()
+        self.save_checkpoint()
+        self.logger.experiment.flush()
+        return final
+
+    def _gradient_step(self) -> dict[str, torch.Tensor]:
+        batch = self.buffer.sample()
+        out = self.algo.update(batch)  # writes |delta| [B, N] at PRIORITY_KEY
+        if self.cfg.algo.prioritized:
+            self.buffer.update_tensordict_priority(batch)  # reduction max over robots (eq. 17)
+            out["priority_mean"] = batch.get(PRIORITY_KEY).amax(-1).mean()
+            out["priority_max"] = batch.get(PRIORITY_KEY).max()
+            out["weight_mean"] = batch.get(WEIGHT_KEY).mean()
+            if self.cfg.algo.beta_final is not None:  # linear annealing of beta towards beta_final
+                frac = min(1.0, self.frames / self.cfg.total_frames)
+                self.buffer.sampler.beta = self.cfg.algo.beta + frac * (self.cfg.algo.beta_final - self.cfg.algo.beta)
+        return out
+
+    # ------------------------------------------------------------------ evaluation
+    @torch.no_grad()
+    def evaluate(self) -> dict[str, float]:
+        """Deterministic actors on the fixed held-out set (``eval_episodes`` copies, ``eval_seed``)."""
+        self.eval_env.set_seed(self.cfg.eval_seed)
+        with set_exploration_type(ExplorationType.DETERMINISTIC):
+            rollout = self.eval_env.rollout(self.cfg.env.max_steps, self.actor, break_when_any_done=False)
+        metrics = summarize(episode_metrics(rollout, self.cfg.env.goal_radius))
+        if self.logger is not None:
+            for k, v in metrics.items():
+                self.logger.log_scalar(f"eval/{k}", v, step=self.frames)
+        self.last_eval = metrics
+        return metrics
+
+    # ------------------------------------------------------------------ logging
+    def _log_train(self, finished, losses, latest, start, steps0) -> dict[str, float]:
+        log = self.logger.log_scalar
+        if finished["length"].numel():
+            latest = summarize(finished)
+            for k, v in latest.items():
+                log(f"train/{k}", v, step=self.frames)
+            log("train_by_episode/episode_reward", latest["episode_reward"], step=self.episodes)
+            log("train_by_episode/success", latest["success"], step=self.episodes)
+        if losses:
+            for k in losses[-1]:
+                values = [o[k] for o in losses if k in o]
+                log(f"loss/{k}" if k.startswith("loss") else f"algo/{k}", torch.stack(values).mean().item(),
+                    step=self.frames)
+        elapsed = max(time.perf_counter() - start, 1e-9)
+        log("perf/episodes", self.episodes, step=self.frames)
+        log("perf/frames_per_s", self._session_frames() / elapsed, step=self.frames)
+        log("perf/grad_steps_per_s", (self.algo.critic_steps - steps0) / elapsed, step=self.frames)
+        log("train/exploration_sigma", self.noise.sigma.item(), step=self.frames)
+        return latest
+
+    def _session_frames(self) -> int:
+        return self.frames - getattr(self, "_resumed_frames", 0)
+
+    def _postfix(self, latest: dict[str, float], start: float) -> dict[str, str]:
+        fps = self._session_frames() / max(time.perf_counter() - start, 1e-9)
+        out = {"fps": f"{fps:,.0f}", "steps": str(self.algo.critic_steps)}
+        if latest:
+            out.update(reward=f"{latest['episode_reward']:.0f}", success=f"{latest['success']:.2f}",
+                       CBRO=f"{latest['CBRO']:.1f}")
+        return out
+
+    # ------------------------------------------------------------------ checkpoints
+    def save_checkpoint(self) -> Path:
+        """Everything needed to resume, written atomically; plus a small policy-only file."""
+        cfg_dict = dataclasses.asdict(self.cfg)
+        state = {
+            "format": FORMAT,
+            "version": formation_rl.__version__,
+            "config": cfg_dict,
+            "algo": self.algo.state_dict(),
+            "noise": self.noise.state_dict(),
+            "counters": {"frames": self.frames, "episodes": self.episodes, "next_eval": self.next_eval,
+                         "next_checkpoint": self.next_checkpoint},
+            "rng": {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate(),
+                    "env": self.env._generator.get_state()},
+            "sampler": self.buffer.sampler.state_dict() if self.cfg.algo.prioritized and self.cfg.save_buffer else None,
+        }
+        path = self.run_dir / CHECKPOINT
+        if self.cfg.save_buffer:
+            self.buffer.dumps(path.parent / "buffer")
+        atomic_save(state, path)
+        atomic_save(self.policy_state(), self.run_dir / POLICY)
+        return path
+
+    def policy_state(self) -> dict:
+        return {"format": FORMAT, "version": formation_rl.__version__, "algo": self.cfg.algo.name,
+                "env": dataclasses.asdict(self.cfg.env), "model": dataclasses.asdict(self.cfg.model),
+                "actor": self.actor.state_dict()}
+
+    def load_checkpoint(self, path: str | Path) -> None:
+        path = resolve_checkpoint(path, self.run_dir)
+        state = load_checkpoint_file(path)
+        saved = state["config"]
+        for name, now, then in (
+            ("algo.name", self.cfg.algo.name, saved["algo"]["name"]),
+            ("env.num_robots", self.cfg.env.num_robots, saved["env"]["num_robots"]),
+            ("env.num_obstacles", self.cfg.env.num_obstacles, saved["env"]["num_obstacles"]),
+            ("model.hidden", list(self.cfg.model.hidden), list(saved["model"]["hidden"])),
+        ):
+            if now != then:
+                raise ValueError(f"resume: {name} = {now!r} but the checkpoint {path} has {then!r}; they must match")
+        self.algo.load_state_dict(state["algo"])
+        self.noise.load_state_dict(state["noise"])
+        c = state["counters"]
+        self.frames, self.episodes = c["frames"], c["episodes"]
+        self.next_eval, self.next_checkpoint = c["next_eval"], c["next_checkpoint"]
+        self._resumed_frames = self.frames
+        torch.set_rng_state(state["rng"]["torch"])
+        np.random.set_state(state["rng"]["numpy"])
+        random.setstate(state["rng"]["python"])
+        self.env._generator.set_state(state["rng"]["env"])
+        buffer_dir = path.parent / "buffer"
+        if self.cfg.save_buffer and buffer_dir.exists():
+            self.buffer.loads(buffer_dir)
+
+    @staticmethod
+    def _seed_everything(seed: int) -> None:
+        torch.manual_seed(seed)
+        np.random.seed(seed % 2**32)
+        random.seed(seed)
+
+
+def resolve_checkpoint(path: str | Path, run_dir: Path) -> Path:
+    """``auto`` -> this run's last checkpoint; a run directory -> its last checkpoint; else the file."""
+    p = run_dir / CHECKPOINT if str(path) in ("auto", "true", "True") else Path(path)
+    if p.is_dir():
+        p = p / CHECKPOINT
+    if not p.is_file():
+        raise ValueError(f"resume = {str(path)!r} is invalid: no checkpoint at {p}")
+    return p
+
+
+def load_checkpoint_file(path: Path) -> dict:
+    """Load a checkpoint or policy file, with one clear error for a corrupt or foreign one."""
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as err:  # truncated, corrupted, not a torch file
+        raise ValueError(f"checkpoint {path} cannot be read ({type(err).__name__}): it is truncated or corrupt") from None
+    if not isinstance(state, dict) or state.get("format") != FORMAT:
+        raise ValueError(f"checkpoint {path} is not a formation_rl checkpoint of format {FORMAT}")
+    return state

@@ -1,0 +1,63 @@
+"""Actors are decentralized, critics centralized, and no parameters are shared between robots."""
+
+import torch
+from tensordict import TensorDict
+from torch import nn
+
+from formation_rl.models import PerRobotMLP, make_actor, make_critic
+
+N, D = 4, 10
+
+
+def td(obs, act=None):
+    data = {("agents", "observation"): obs}
+    if act is not None:
+        data[("agents", "action")] = act
+    return TensorDict(data, [obs.shape[0]])
+
+
+def test_per_robot_mlp_is_n_independent_mlps():
+    mlp = PerRobotMLP(N, D, 3, (8, 6))
+    x = torch.randn(5, N, D)
+    y = mlp(x)
+    for i in range(N):
+        ref = nn.Sequential(nn.Linear(D, 8), nn.ReLU(), nn.Linear(8, 6), nn.ReLU(), nn.Linear(6, 3))
+        for layer, w, b in zip(ref[::2], mlp.weights, mlp.biases, strict=True):
+            layer.weight.data.copy_(w[i].T)
+            layer.bias.data.copy_(b[i, 0])
+        torch.testing.assert_close(y[:, i], ref(x[:, i]), atol=1e-5, rtol=1e-5)
+    assert not torch.equal(mlp.weights[0][0], mlp.weights[0][1])  # robots start different, share nothing
+
+
+def test_actor_sees_only_its_own_observation():
+    actor = make_actor(N, D, (16, 16))
+    obs = torch.randn(3, N, D)
+    a0 = actor(td(obs.clone()))["agents", "action"]
+    obs[:, 2] += 1.0  # change robot 2's observation only
+    a1 = actor(td(obs))["agents", "action"]
+    changed = (a0 - a1).abs().amax((0, 2)) > 1e-6
+    assert changed.tolist() == [False, False, True, False]
+    assert a1.abs().max() <= 1.0
+
+
+def test_each_critic_sees_every_observation_and_action():
+    critic = make_critic(N, D, (16, 16))
+    obs, act = torch.randn(3, N, D), torch.rand(3, N, 2) * 2 - 1
+    q0 = critic(td(obs.clone(), act.clone()))["agents", "state_action_value"]
+    for j in range(N):
+        o, a = obs.clone(), act.clone()
+        o[:, j] += 0.5
+        assert ((critic(td(o, act.clone()))["agents", "state_action_value"] - q0).abs().amax((0, 2)) > 1e-6).all()
+        a[:, j] = -a[:, j]
+        assert ((critic(td(obs.clone(), a))["agents", "state_action_value"] - q0).abs().amax((0, 2)) > 1e-6).all()
+
+
+def test_robot_i_critic_passes_gradient_only_to_its_own_action():
+    critic = make_critic(N, D, (16, 16))
+    obs = torch.randn(3, N, D)
+    act = (torch.rand(3, N, 2) * 2 - 1).requires_grad_()
+    q = critic(td(obs, act))["agents", "state_action_value"]  # [3, N, 1]
+    for i in range(N):
+        (grad,) = torch.autograd.grad(q[:, i].sum(), act, retain_graph=True)
+        per_robot = grad.abs().sum((0, 2))
+        assert per_robot[i] > 0 and (per_robot[torch.arange(N) != i] == 0).all()
