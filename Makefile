@@ -3,8 +3,10 @@ PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 ARGS ?=
+ALGO ?= per_matd3
+RUNS ?= outputs
 
-.PHONY: help setup demo test test-slow bench-env lint clean
+.PHONY: help setup train train-paper tensorboard demo test test-slow bench-env lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -16,6 +18,15 @@ $(PY): pyproject.toml
 	@touch $(PY)
 
 setup: $(PY)  ## create .venv and install the package with its dev tools
+
+train: $(PY)  ## train ALGO (maddpg | matd3 | per_matd3) on the short default budget; ARGS = Hydra overrides
+	$(PY) -m formation_rl.train algo=$(ALGO) $(ARGS)
+
+train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradient steps)
+	$(PY) -m formation_rl.train algo=$(ALGO) budget=paper $(ARGS)
+
+tensorboard: $(PY)  ## serve TensorBoard over RUNS (default outputs/)
+	$(VENV)/bin/tensorboard --logdir $(RUNS)
 
 demo: $(PY)  ## roll 64 copies for one episode, print SPEC §6 metrics, write a GIF (ARGS = Hydra overrides)
 	$(PY) -m formation_rl.rollout $(ARGS)

@@ -1,3 +1,10 @@
 """formation_rl: multi-robot formation control with MADDPG / MATD3 / PER-MATD3 on TorchRL."""
 
 __version__ = "0.1.0"
+
+
+def load_policy(path, device="cpu"):
+    """A trained policy (callable from observations [..., N, D] to actions [..., N, 2]); see formation_rl.policy."""
+    from formation_rl.policy import load_policy as _load
+
+    return _load(path, device)

@@ -103,3 +103,7 @@ def validate(cfg: TrainConfig) -> None:
     for name in ("eval_interval", "checkpoint_interval", "eval_episodes"):
         check(getattr(cfg, name) >= 1, name, getattr(cfg, name), "an integer >= 1")
     check(cfg.device == "cpu" or cfg.device.startswith("cuda"), "device", cfg.device, "cpu, cuda or cuda:<index>")
+    if cfg.device.startswith("cuda"):
+        import torch
+
+        check(torch.cuda.is_available(), "device", cfg.device, "cpu here: CUDA is not available on this machine")

@@ -85,6 +85,7 @@ class Trainer:
         self.frames = self.episodes = 0
         self.next_eval, self.next_checkpoint = cfg.eval_interval, cfg.checkpoint_interval
         self.last_eval: dict[str, float] = {}
+        self.eval_frame = -1  # frames at the last evaluation
         self.logger: TensorboardLogger | None = None
 
     # ------------------------------------------------------------------ the loop
@@ -103,6 +104,8 @@ class Trainer:
         )
         bar = tqdm(total=cfg.total_frames, initial=self.frames, unit="frame", unit_scale=True,
                    disable=not cfg.progress, desc=a.name, dynamic_ncols=True)
+        if self.frames == 0:
+            self.evaluate()  # the untrained policy: the baseline every curve starts from
         credit, start, steps0 = 0, time.perf_counter(), self.algo.critic_steps
         latest: dict[str, float] = {}
         try:
@@ -132,7 +135,7 @@ class Trainer:
         finally:
             collector.shutdown()
             bar.close()
-        final = self.evaluate()
+        final = self.last_eval if self.eval_frame == self.frames else self.evaluate()
         self.save_checkpoint()
         self.logger.experiment.flush()
         return final
@@ -161,7 +164,7 @@ class Trainer:
         if self.logger is not None:
             for k, v in metrics.items():
                 self.logger.log_scalar(f"eval/{k}", v, step=self.frames)
-        self.last_eval = metrics
+        self.last_eval, self.eval_frame = metrics, self.frames
         return metrics
 
     # ------------------------------------------------------------------ logging
@@ -209,7 +212,8 @@ class Trainer:
             "counters": {"frames": self.frames, "episodes": self.episodes, "next_eval": self.next_eval,
                          "next_checkpoint": self.next_checkpoint},
             "rng": {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate(),
-                    "env": self.env._generator.get_state()},
+                    "env": self.env._generator.get_state(),
+                    "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None},
             "sampler": self.buffer.sampler.state_dict() if self.cfg.algo.prioritized and self.cfg.save_buffer else None,
         }
         path = self.run_dir / CHECKPOINT
@@ -246,6 +250,8 @@ class Trainer:
         np.random.set_state(state["rng"]["numpy"])
         random.setstate(state["rng"]["python"])
         self.env._generator.set_state(state["rng"]["env"])
+        if state["rng"].get("cuda") is not None and torch.cuda.is_available():
+            torch.cuda.set_rng_state_all(state["rng"]["cuda"])
         buffer_dir = path.parent / "buffer"
         if self.cfg.save_buffer and buffer_dir.exists():
             self.buffer.loads(buffer_dir)

@@ -1,0 +1,53 @@
+"""Load a trained policy for evaluation or deployment, without optimiser or critic state."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+from tensordict import TensorDict
+from tensordict.nn import TensorDictModule
+
+from formation_rl.config import ModelConfig
+from formation_rl.envs import EnvConfig
+from formation_rl.models import make_actor
+from formation_rl.trainer import POLICY, load_checkpoint_file
+
+
+class Policy:
+    """Deterministic per-robot actors: ``policy(obs)`` maps ``[..., N, D]`` observations to ``[..., N, 2]`` actions."""
+
+    def __init__(self, actor: TensorDictModule, env_config: EnvConfig, algo: str):
+        self.actor, self.env_config, self.algo = actor, env_config, algo
+
+    @torch.no_grad()
+    def __call__(self, observation):
+        as_numpy = isinstance(observation, np.ndarray)
+        obs = torch.as_tensor(observation, dtype=torch.float32)
+        n, d = self.env_config.num_robots, self.env_config.obs_dim
+        if obs.shape[-2:] != (n, d):
+            raise ValueError(f"observation shape {tuple(obs.shape)} is invalid: the policy expects [..., {n}, {d}]")
+        lead = obs.shape[:-2]
+        td = TensorDict({("agents", "observation"): obs.reshape(-1, n, d)}, [obs[..., 0, 0].numel()])
+        action = self.actor(td)["agents", "action"].reshape(*lead, n, 2)
+        return action.numpy() if as_numpy else action
+
+
+def load_policy(path: str | Path, device: str | torch.device = "cpu") -> Policy:
+    """A policy from ``policy.pt``, a ``last.pt`` beside one, or a run directory."""
+    p = Path(path)
+    if p.is_dir():
+        p = p / POLICY if (p / POLICY).exists() else p / "policy.pt"
+    elif p.name != "policy.pt" and (p.parent / "policy.pt").exists():
+        p = p.parent / "policy.pt"
+    if not p.is_file():
+        raise ValueError(f"policy path {str(path)!r} is invalid: no policy.pt at {p}")
+    state = load_checkpoint_file(p)
+    if "actor" not in state:
+        raise ValueError(f"checkpoint {p} holds no actor: pass a policy.pt or a run directory")
+    env_cfg = EnvConfig.from_dict(state["env"])
+    model = ModelConfig(**state["model"])
+    actor = make_actor(env_cfg.num_robots, env_cfg.obs_dim, tuple(model.hidden), model.activation)
+    actor.load_state_dict(state["actor"])
+    return Policy(actor.to(device).eval(), env_cfg, state["algo"])

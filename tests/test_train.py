@@ -1,0 +1,130 @@
+"""The training job: a tiny run end to end, TensorBoard tags, checkpoints, resume, policy loading, CLI."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+import formation_rl
+from formation_rl.config import TrainConfig
+from formation_rl.envs import EnvConfig
+from formation_rl.trainer import CHECKPOINT, POLICY, Trainer
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def tiny(algo="per_matd3", frames=2400, **kw) -> TrainConfig:
+    cfg = TrainConfig(env=EnvConfig(num_robots=3, num_obstacles=1, max_steps=20), total_frames=frames, num_envs=8,
+                      steps_per_batch=20, eval_interval=1600, eval_episodes=4, checkpoint_interval=1600,
+                      progress=False, **kw)
+    cfg.algo.name = algo
+    if algo == "maddpg":
+        cfg.algo.num_critics, cfg.algo.policy_delay, cfg.algo.policy_noise, cfg.algo.prioritized = 1, 1, 0.0, False
+    if algo == "matd3":
+        cfg.algo.prioritized = False
+    cfg.algo.batch_size, cfg.algo.warmup_frames, cfg.algo.update_every = 64, 320, 20
+    cfg.model.hidden = [32, 32]
+    return cfg
+
+
+def scalars(run_dir: Path) -> dict[str, list]:
+    ea = EventAccumulator(str(next((run_dir / "tb").glob("events*"))))
+    ea.Reload()
+    return {tag: [(e.step, e.value) for e in ea.Scalars(tag)] for tag in ea.Tags()["scalars"]}
+
+
+@pytest.mark.parametrize("algo", ["maddpg", "matd3", "per_matd3"])
+def test_tiny_run_logs_checkpoints_and_evaluates(tmp_path, algo):
+    trainer = Trainer(tiny(algo), tmp_path)
+    metrics = trainer.train()
+    assert trainer.frames == 2400 and trainer.episodes == 8 * 2400 // (8 * 20)
+    # one gradient step per update_every frames, counted from the collector batch (160 frames) that
+    # brings the buffer to warmup_frames = 320, i.e. the 2nd
+    assert trainer.algo.critic_steps == (2400 - 160) // 20
+    assert set(metrics) >= {"episode_reward", "CBRS", "CBRO", "UDBLT", "RFSE", "success"}
+    tags = scalars(tmp_path)
+    for tag in ("train/episode_reward", "train/leader_reward", "train/follower_reward", "train/CBRS", "train/CBRO",
+                "train/UDBLT", "train/RFSE", "train/success", "train_by_episode/episode_reward", "eval/CBRO",
+                "eval/success", "loss/loss_critic", "loss/loss_actor", "algo/q_value", "perf/frames_per_s",
+                "perf/grad_steps_per_s", "perf/episodes"):
+        assert tag in tags, tag
+    assert ("algo/priority_mean" in tags) == (algo == "per_matd3")
+    assert [s for s, _ in tags["eval/success"]] == [0, 1600, 2400]  # untrained, every eval_interval, the end
+    assert (tmp_path / CHECKPOINT).is_file() and (tmp_path / POLICY).is_file()
+    assert not list((tmp_path / "checkpoints").glob("*.tmp"))
+
+
+def test_resume_continues_counters_and_state(tmp_path):
+    first = Trainer(tiny("matd3", frames=1600), tmp_path)
+    first.train()
+    steps, actor = first.algo.critic_steps, [p.detach().clone() for p in first.algo.actor_params]
+    second = Trainer(tiny("matd3", frames=3200), tmp_path)
+    second.load_checkpoint("auto")
+    assert (second.frames, second.episodes, second.algo.critic_steps) == (1600, first.episodes, steps)
+    assert all(torch.equal(a, b) for a, b in zip(actor, second.algo.actor_params, strict=True))
+    assert second.algo.actor_optim.state_dict()["state"]  # Adam moments came back
+    second.train()
+    assert second.frames == 3200 and second.algo.critic_steps > steps
+    tags = scalars(tmp_path)
+    assert max(s for s, _ in tags["eval/success"]) == 3200
+
+
+def test_resume_rejects_another_team(tmp_path):
+    Trainer(tiny("matd3", frames=800), tmp_path).train()
+    other = tiny("matd3", frames=1600)
+    other.env.num_robots = 4
+    with pytest.raises(ValueError, match=r"resume: env.num_robots = 4 but the checkpoint .* has 3"):
+        Trainer(other, tmp_path).load_checkpoint("auto")
+    (tmp_path / CHECKPOINT).write_bytes(b"not a checkpoint")
+    with pytest.raises(ValueError, match="truncated or corrupt"):
+        Trainer(tiny("matd3", frames=1600), tmp_path).load_checkpoint("auto")
+
+
+def test_load_policy_without_optimiser_state(tmp_path):
+    trainer = Trainer(tiny("per_matd3", frames=800), tmp_path)
+    trainer.train()
+    policy = formation_rl.load_policy(tmp_path)
+    obs = torch.randn(7, 3, trainer.cfg.env.obs_dim)
+    from tensordict import TensorDict
+
+    expected = trainer.actor(TensorDict({("agents", "observation"): obs}, [7]))["agents", "action"]
+    torch.testing.assert_close(policy(obs), expected)
+    assert policy(obs.numpy()).shape == (7, 3, 2)
+    with pytest.raises(ValueError, match=r"expects \[..., 3, "):
+        policy(torch.randn(2, 4, 5))
+
+
+def test_learns_to_reach_the_goal(tmp_path):
+    """Learning check: two robots, no obstacles; the leader learns to approach the goal (random: ~9 m)."""
+    cfg = TrainConfig(env=EnvConfig(num_robots=2, num_obstacles=0), total_frames=24000, num_envs=32,
+                      steps_per_batch=25, eval_interval=24000, eval_episodes=50, checkpoint_interval=24000,
+                      progress=False)
+    cfg.algo.name, cfg.algo.num_critics, cfg.algo.policy_delay, cfg.algo.policy_noise = "maddpg", 1, 1, 0.0
+    cfg.algo.prioritized, cfg.algo.update_every, cfg.algo.warmup_frames, cfg.algo.batch_size = False, 10, 2000, 256
+    metrics = Trainer(cfg, tmp_path).train()
+    assert metrics["UDBLT"] < 2.5, metrics
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "formation_rl.train", *args], cwd=ROOT, capture_output=True,
+                          text=True, timeout=600)
+
+
+def test_cli_tiny_run_and_errors(tmp_path):
+    out = _cli("algo=maddpg", "total_frames=1000", "num_envs=4", "steps_per_batch=25", "algo.warmup_frames=200",
+               "algo.batch_size=32", "eval_episodes=2", "env.max_steps=25", "model.hidden=[16,16]",
+               f"hydra.run.dir={tmp_path}")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "final evaluation" in out.stdout and json.loads((tmp_path / "metrics.json").read_text())["length"] == 25
+    bad = _cli("algo=ppo", f"hydra.run.dir={tmp_path}/x")
+    assert bad.returncode != 0 and "maddpg" in bad.stderr and "per_matd3" in bad.stderr
+    bad = _cli("algo.lr_actor=-1", f"hydra.run.dir={tmp_path}/y")
+    assert bad.returncode == 2 and bad.stderr.strip() == "error: algo.lr_actor = -1.0 is invalid: must be > 0"
+    bad = _cli("algo.batch_size=2048", "algo.buffer_size=1000", f"hydra.run.dir={tmp_path}/z")
+    assert bad.returncode == 2 and "algo.buffer_size = 1000 is invalid: must be >= algo.batch_size (2048)" in bad.stderr
+    bad = _cli("algo.lr_actr=0.1", f"hydra.run.dir={tmp_path}/w")
+    assert bad.returncode != 0 and "lr_actr" in bad.stderr
