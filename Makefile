@@ -6,7 +6,7 @@ ARGS ?=
 ALGO ?= per_matd3
 RUNS ?= outputs
 
-.PHONY: help setup train train-paper tensorboard demo test test-slow bench-env lint clean
+.PHONY: help setup train train-paper tensorboard demo test test-slow bench-env bench-step lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -39,6 +39,9 @@ test-slow: $(PY)  ## the long checks marked slow (10^6 random steps ...)
 
 bench-env: $(PY)  ## environment throughput, frames/s for B in {1, 64, 1024, 4096}
 	$(PY) benchmarks/env_throughput.py --json benchmarks/env_throughput.json $(ARGS)
+
+bench-step: $(PY)  ## milliseconds per gradient step of each algorithm (N=5, batch 1024)
+	$(PY) benchmarks/grad_step.py $(ARGS)
 
 lint: $(PY)  ## ruff
 	$(VENV)/bin/ruff check formation_rl tests benchmarks

@@ -278,7 +278,8 @@ def load_checkpoint_file(path: Path) -> dict:
     try:
         state = torch.load(path, map_location="cpu", weights_only=False)
     except Exception as err:  # truncated, corrupted, not a torch file
-        raise ValueError(f"checkpoint {path} cannot be read ({type(err).__name__}): it is truncated or corrupt") from None
+        kind = type(err).__name__
+        raise ValueError(f"checkpoint {path} cannot be read ({kind}): it is truncated or corrupt") from None
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         raise ValueError(f"checkpoint {path} is not a formation_rl checkpoint of format {FORMAT}")
     return state

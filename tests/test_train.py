@@ -128,3 +128,21 @@ def test_cli_tiny_run_and_errors(tmp_path):
     assert bad.returncode == 2 and "algo.buffer_size = 1000 is invalid: must be >= algo.batch_size (2048)" in bad.stderr
     bad = _cli("algo.lr_actr=0.1", f"hydra.run.dir={tmp_path}/w")
     assert bad.returncode != 0 and "lr_actr" in bad.stderr
+
+
+@pytest.mark.slow
+def test_default_budget_learning_check(tmp_path):
+    """`make train` (PER-MATD3, default budget): evaluation against the untrained policy's (frame 0)."""
+    from hydra import compose, initialize_config_dir
+
+    import formation_rl.train  # noqa: F401  (registers the schema)
+
+    with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base=None):
+        cfg = compose(config_name="config", overrides=["progress=false"])
+    trainer = Trainer(cfg, tmp_path)
+    final = trainer.train()
+    evals = scalars(tmp_path)
+    untrained = {k.split("/")[1]: v[0][1] for k, v in evals.items() if k.startswith("eval/")}
+    print("untrained:", untrained, "\nfinal:", final)
+    assert final["episode_reward"] > untrained["episode_reward"]
+    assert final["success"] > untrained["success"]

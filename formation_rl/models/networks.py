@@ -38,13 +38,16 @@ class PerRobotMLP(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
-        h = x.reshape(-1, n, d).transpose(0, 1)  # [N, B, in]
+        return self.layers_from(x.reshape(-1, n, d).transpose(0, 1), 0).transpose(0, 1).reshape(*lead, n, -1)
+
+    def layers_from(self, h: torch.Tensor, first: int) -> torch.Tensor:
+        """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``."""
         last = len(self.weights) - 1
-        for k, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            h = torch.baddbmm(b, h, w)  # [N, B, out_k]: robot i's layer on robot i's rows
+        for k in range(first, last + 1):
+            h = torch.baddbmm(self.biases[k], h, self.weights[k])  # robot i's layer on robot i's rows
             if k < last:
                 h = self.activation(h)
-        return h.transpose(0, 1).reshape(*lead, n, -1)
+        return h
 
 
 class CentralizedCritic(nn.Module):
@@ -52,21 +55,32 @@ class CentralizedCritic(nn.Module):
 
     Critic i sees every observation and action; gradients reach the actions only through a_i
     (the others enter detached), so ``-sum_i Q_i`` trains actor i on its own critic, as in MADDPG.
+    The first layer, over the joint input shared by all critics, runs as two GEMMs instead of N.
     """
 
     def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
                  activation: str = "relu"):
         super().__init__()
+        # critic i's first-layer input: every observation (N*D), then every action (N*2)
         self.mlp = PerRobotMLP(num_robots, num_robots * (obs_dim + action_dim), 1, hidden, activation)
-        self.register_buffer("own", torch.eye(num_robots)[..., None], persistent=False)  # [N(critic), N(robot), 1]
 
     def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
-        n = observation.shape[-2]
-        live = action.unsqueeze(-3)  # [..., 1, N, 2]
-        dead = live.detach()
-        actions = dead + self.own * (live - dead)  # [..., N(critic), N(robot), 2], values all equal a
-        joint_obs = observation.flatten(-2).unsqueeze(-2).expand(*observation.shape[:-2], n, -1)
-        return self.mlp(torch.cat([joint_obs, actions.flatten(-2)], -1))  # [..., N, 1]
+        lead, (n, d) = observation.shape[:-2], observation.shape[-2:]
+        obs = observation.reshape(-1, n * d)  # [B, N*D], the same joint input for every critic
+        act = action.reshape(-1, n, 2)
+        dead = act.detach()
+        # first layer of all N critics as two GEMMs over the shared joint input (weights [N, N*D + 2N, H])
+        w1 = self.mlp.weights[0]
+        h_dim = w1.shape[-1]
+        w_obs = w1[:, : n * d].permute(1, 0, 2).reshape(n * d, n * h_dim)
+        w_act = w1[:, n * d :].permute(1, 0, 2).reshape(2 * n, n * h_dim)
+        h = (obs @ w_obs + dead.reshape(-1, 2 * n) @ w_act).view(-1, n, h_dim).transpose(0, 1)  # [N, B, H]
+        # a_i's gradient path into critic i alone: adds zero to the values, (a_i - sg(a_i)) W_i^(i)
+        ar = torch.arange(n, device=w1.device)
+        w_own = w1[:, n * d :].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
+        h = h + torch.bmm((act - dead).transpose(0, 1), w_own) + self.mlp.biases[0]
+        h = self.mlp.layers_from(self.mlp.activation(h), 1)  # [N, B, 1]
+        return h.transpose(0, 1).reshape(*lead, n, 1)
 
 
 def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu") -> TensorDictModule:

@@ -61,3 +61,12 @@ def test_robot_i_critic_passes_gradient_only_to_its_own_action():
         (grad,) = torch.autograd.grad(q[:, i].sum(), act, retain_graph=True)
         per_robot = grad.abs().sum((0, 2))
         assert per_robot[i] > 0 and (per_robot[torch.arange(N) != i] == 0).all()
+
+
+def test_critic_equals_per_robot_mlp_on_the_joint_input():
+    critic = make_critic(N, D, (16, 16))
+    module = critic.module
+    obs, act = torch.randn(5, N, D), torch.rand(5, N, 2) * 2 - 1
+    joint = torch.cat([obs.flatten(-2), act.flatten(-2)], -1)  # [B, N*D + 2N]
+    expected = module.mlp(joint.unsqueeze(-2).expand(5, N, -1))  # robot i's MLP on the joint input
+    torch.testing.assert_close(critic(td(obs, act))["agents", "state_action_value"], expected, atol=1e-5, rtol=1e-5)
