@@ -21,6 +21,22 @@ class Policy:
     def __init__(self, actor: TensorDictModule, env_config: EnvConfig, algo: str):
         self.actor, self.env_config, self.algo = actor, env_config, algo
 
+    @property
+    def module(self) -> TensorDictModule:
+        """The actors as a TorchRL policy (``("agents", "observation")`` -> ``("agents", "action")``)."""
+        return self.actor
+
+    def check_world(self, env_cfg: EnvConfig) -> None:
+        """Raise if ``env_cfg`` gives observations this policy cannot read (team size, obstacle slots)."""
+        mine = self.env_config
+        if env_cfg.num_robots != mine.num_robots:
+            raise ValueError(f"env.num_robots = {env_cfg.num_robots} is invalid: the policy was trained with "
+                             f"{mine.num_robots} robots and has one actor per robot")
+        if env_cfg.obs_dim != mine.obs_dim:
+            raise ValueError(f"env.num_obstacles = {env_cfg.num_obstacles} is invalid: the policy reads "
+                             f"{mine.num_obstacles} obstacle slots (observation width {mine.obs_dim}, "
+                             f"requested {env_cfg.obs_dim})")
+
     @torch.no_grad()
     def __call__(self, observation):
         as_numpy = isinstance(observation, np.ndarray)
@@ -34,15 +50,21 @@ class Policy:
         return action.numpy() if as_numpy else action
 
 
-def load_policy(path: str | Path, device: str | torch.device = "cpu") -> Policy:
-    """A policy from ``policy.pt``, a ``last.pt`` beside one, or a run directory."""
+def policy_path(path: str | Path) -> Path:
+    """``policy.pt`` itself, the one beside a ``last.pt``, or the one of a run directory."""
     p = Path(path)
     if p.is_dir():
         p = p / POLICY if (p / POLICY).exists() else p / "policy.pt"
     elif p.name != "policy.pt" and (p.parent / "policy.pt").exists():
         p = p.parent / "policy.pt"
     if not p.is_file():
-        raise ValueError(f"policy path {str(path)!r} is invalid: no policy.pt at {p}")
+        raise ValueError(f"ckpt = {str(path)!r} is invalid: no policy.pt at {p}")
+    return p
+
+
+def load_policy(path: str | Path, device: str | torch.device = "cpu") -> Policy:
+    """A policy from ``policy.pt``, a ``last.pt`` beside one, or a run directory."""
+    p = policy_path(path)
     state = load_checkpoint_file(p)
     if "actor" not in state:
         raise ValueError(f"checkpoint {p} holds no actor: pass a policy.pt or a run directory")
