@@ -5,8 +5,11 @@ PY := $(VENV)/bin/python
 ARGS ?=
 ALGO ?= per_matd3
 RUNS ?= outputs
+CKPT ?=
+JOBS ?= $(shell nproc)
+SWEEP ?= outputs/sweep
 
-.PHONY: help setup train train-paper tensorboard demo test test-slow bench-env bench-step lint clean
+.PHONY: help setup train train-paper eval render sweep compare tensorboard demo test test-slow bench-env bench-step lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -24,6 +27,19 @@ train: $(PY)  ## train ALGO (maddpg | matd3 | per_matd3) on the short default bu
 
 train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradient steps)
 	$(PY) -m formation_rl.train algo=$(ALGO) budget=paper $(ARGS)
+
+eval: $(PY)  ## evaluate CKPT (policy.pt, last.pt or run dir) on 1,000 held-out episodes; ARGS = overrides
+	$(PY) -m formation_rl.evaluate ckpt=$(CKPT) $(ARGS)
+
+render: $(PY)  ## one held-out episode of CKPT as a GIF and a Figure-10 PNG
+	$(PY) -m formation_rl.visualize ckpt=$(CKPT) $(ARGS)
+
+sweep: $(PY)  ## algo x seed multirun (JOBS parallel jobs) into SWEEP; ARGS e.g. "total_frames=20000"
+	SWEEP_JOBS=$(JOBS) $(PY) -m formation_rl.train -m hydra/launcher=local hydra.sweep.dir=$(SWEEP) \
+		algo=maddpg,matd3,per_matd3 seed=0,1,2 threads=1 progress=false $(ARGS)
+
+compare: $(PY)  ## Figures 6-9 and Table 1 from RUNS (run dirs or a sweep dir)
+	$(PY) -m formation_rl.report $(RUNS) $(ARGS)
 
 tensorboard: $(PY)  ## serve TensorBoard over RUNS (default outputs/)
 	$(VENV)/bin/tensorboard --logdir $(RUNS)

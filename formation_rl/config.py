@@ -64,6 +64,7 @@ class TrainConfig:
     save_buffer: bool = False  # also checkpoint the replay buffer (large: ~1 kB per frame)
     resume: str | None = None  # a checkpoint file or run directory to continue from; "auto": this run's
     progress: bool = True  # progress bar
+    threads: int | None = None  # torch intra-op threads (None: torch's default; sweeps set 1 per job)
 
 
 def register() -> None:
@@ -102,6 +103,7 @@ def validate(cfg: TrainConfig) -> None:
     check(cfg.steps_per_batch >= 1, "steps_per_batch", cfg.steps_per_batch, "an integer >= 1")
     for name in ("eval_interval", "checkpoint_interval", "eval_episodes"):
         check(getattr(cfg, name) >= 1, name, getattr(cfg, name), "an integer >= 1")
+    check(cfg.threads is None or cfg.threads >= 1, "threads", cfg.threads, "null or an integer >= 1")
     check(cfg.device == "cpu" or cfg.device.startswith("cuda"), "device", cfg.device, "cpu, cuda or cuda:<index>")
     if cfg.device.startswith("cuda"):
         import torch

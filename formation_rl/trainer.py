@@ -63,6 +63,8 @@ class Trainer:
         validate(cfg)
         cfg.env.validate()
         self.cfg, self.run_dir = cfg, Path(run_dir)
+        if cfg.threads:
+            torch.set_num_threads(cfg.threads)
         a = cfg.algo
         self._seed_everything(cfg.seed)
         dev = torch.device(cfg.device)

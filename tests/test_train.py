@@ -32,9 +32,14 @@ def tiny(algo="per_matd3", frames=2400, **kw) -> TrainConfig:
 
 
 def scalars(run_dir: Path) -> dict[str, list]:
-    ea = EventAccumulator(str(next((run_dir / "tb").glob("events*"))))
-    ea.Reload()
-    return {tag: [(e.step, e.value) for e in ea.Scalars(tag)] for tag in ea.Tags()["scalars"]}
+    """Every scalar of a run, over all its event files (a resumed run adds one)."""
+    out: dict[str, list] = {}
+    for events in sorted((run_dir / "tb").glob("events*")):
+        ea = EventAccumulator(str(events))
+        ea.Reload()
+        for tag in ea.Tags()["scalars"]:
+            out.setdefault(tag, []).extend((e.step, e.value) for e in ea.Scalars(tag))
+    return out
 
 
 @pytest.mark.parametrize("algo", ["maddpg", "matd3", "per_matd3"])

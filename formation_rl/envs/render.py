@@ -100,3 +100,50 @@ def save_gif(rollout: TensorDictBase, path: str | Path, cfg: EnvConfig, index: i
         plt.close(fig)
     imageio.mimsave(path, frames, duration=1000 / fps, loop=0)
     return path
+
+
+def collisions(positions: np.ndarray, centers: np.ndarray, radii: np.ndarray, cfg: EnvConfig) -> np.ndarray:
+    """Per-robot collision flags of one state (SPEC §1): ``[N]`` bool, robot-robot or robot-obstacle."""
+    d = np.linalg.norm(positions[:, None] - positions[None], axis=-1) + np.eye(len(positions)) * 1e9
+    robot = (d - 2 * cfg.robot_radius < cfg.robot_collision_margin).any(1)
+    gap = np.linalg.norm(positions[:, None] - centers[None], axis=-1) - cfg.robot_radius - radii[None]
+    obstacle = (gap < cfg.obstacle_collision_margin).any(1) if len(radii) else np.zeros(len(positions), bool)
+    return robot | obstacle
+
+
+def plot_trajectories(rollout: TensorDictBase, cfg: EnvConfig, path: str | Path, index: int = 0,
+                      steps: tuple[int, ...] = (10, 35, 95, 120), title: str | None = None) -> Path:
+    """Figure 10 of the paper: each robot's path, the team and its active formation at ``steps``,
+    the obstacle area shaded, collisions marked with a black x. Writes a PNG."""
+    states = rollout_states(rollout, index)
+    pos = np.stack([s["positions"].cpu().numpy() for s in states])  # [T+1, N, 2]
+    first = states[0]
+    centers, radii = first["obstacle_centers"].cpu().numpy(), first["obstacle_radii"].cpu().numpy()
+    n = pos.shape[1]
+    colors = role_colors(n)
+    fig, ax = plt.subplots(figsize=(6, 6), dpi=100)
+    try:
+        draw_state(ax, first, cfg, title=title)
+        for p in ax.patches[-n:]:  # the robots at the start: faint
+            p.set_alpha(0.3)
+        for i in range(n):
+            ax.plot(pos[:, i, 0], pos[:, i, 1], color=colors[i], lw=1.0, alpha=0.8, zorder=4)
+        for t in [t for t in steps if t < len(pos)]:
+            step_state = states[t]
+            for i, j in torch.nonzero(active_pairs(step_state["positions"].cpu(), cfg)).tolist():
+                ax.plot(*zip(pos[t, i], pos[t, j], strict=True), color="black", lw=0.8, zorder=6)
+            for i in range(n):
+                ax.add_patch(plt.Circle(pos[t, i], cfg.robot_radius, color=colors[i], zorder=7))
+            ax.annotate(f"step {t}", pos[t, 0] + np.array([0.15, 0.15]), fontsize=8, zorder=8)
+        hits = np.array([collisions(pos[t], centers, radii, cfg) for t in range(1, len(pos))])  # [T, N]
+        tt, ii = np.nonzero(hits)
+        if len(tt):
+            ax.scatter(pos[tt + 1, ii, 0], pos[tt + 1, ii, 1], marker="x", color="black", s=18, zorder=9,
+                       label="collision")
+            ax.legend(loc="lower right", fontsize=8)
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path)
+    finally:
+        plt.close(fig)
+    return path

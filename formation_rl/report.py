@@ -1,0 +1,204 @@
+"""Compare runs: the paper's Figures 6-9 and Table 1 from TensorBoard events and final evaluations.
+
+    python -m formation_rl.report RUN_OR_SWEEP_DIR [...] [--by algo.name] [--out DIR] [--smooth 0.9]
+
+Each run directory (Hydra's, with ``.hydra/config.yaml`` and ``tb/``) is grouped by a config key;
+curves are the mean over the group's seeds with a shaded min-max spread, smoothed; Table 1 takes
+each run's final evaluation (``checkpoints/metrics.json`` from ``make eval`` when present, else the
+training run's ``metrics.json``) and reports mean ± 95% CI across seeds beside the paper's numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+import yaml  # noqa: E402
+
+from formation_rl.evaluate import mean_ci  # noqa: E402
+
+# the paper's Table 1 (CBRO %, UDBLT m, RFSE m)
+PAPER = {"maddpg": (3.72, 0.15, 2.28), "matd3": (4.29, 0.05, 1.09), "per_matd3": (2.37, 0.08, 0.36)}
+TABLE_METRICS = ("episode_reward", "CBRS", "CBRO", "UDBLT", "RFSE", "success")
+FIGURES = {  # file: (title, [(tag, label)], y label)
+    "fig6_episode_reward.png": ("Episode reward (Fig. 6)", [("train/episode_reward", None)], "episode reward"),
+    "fig7_collisions.png": ("Collision rates (Fig. 7)", [("train/CBRS", "CBRS"), ("train/CBRO", "CBRO")], "% of steps"),
+    "fig8_udblt.png": ("Leader-to-goal distance at the last step (Fig. 8)", [("train/UDBLT", None)], "UDBLT (m)"),
+    "fig9_rfse.png": ("Formation error (Fig. 9)", [("train/RFSE", None)], "RFSE (m)"),
+}
+
+
+@dataclass
+class Run:
+    path: Path
+    config: dict
+    scalars: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # tag -> (episodes, values)
+    final: dict[str, float] | None = None
+
+
+def find_runs(paths: list[str]) -> list[Path]:
+    """Run directories under ``paths`` (a run dir holds ``.hydra/config.yaml`` and ``tb/``)."""
+    runs = []
+    for p in map(Path, paths):
+        if not p.exists():
+            raise ValueError(f"runs: {str(p)!r} does not exist")
+        candidates = [p] if (p / ".hydra").is_dir() else sorted(c.parent.parent for c in p.rglob(".hydra/config.yaml"))
+        runs += [c for c in candidates if (c / "tb").is_dir()]
+    if not runs:
+        raise ValueError(f"runs: no training run (a directory with .hydra/config.yaml and tb/) under {paths}")
+    return runs
+
+
+def load_run(path: Path) -> Run:
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    config = yaml.safe_load((path / ".hydra" / "config.yaml").read_text())
+    run = Run(path, config)
+    for events in sorted((path / "tb").glob("events*")):
+        ea = EventAccumulator(str(events), size_guidance={"scalars": 0})
+        ea.Reload()
+        tags = ea.Tags()["scalars"]
+        episodes = _series(ea, "perf/episodes") if "perf/episodes" in tags else None
+        for tag in tags:
+            frames, values = _series(ea, tag)
+            x = np.interp(frames, *episodes) if episodes is not None and tag.startswith("train/") else frames
+            if tag in run.scalars:  # a resumed run: append
+                x0, v0 = run.scalars[tag]
+                x, values = np.concatenate([x0, x]), np.concatenate([v0, values])
+            run.scalars[tag] = (x, values)
+    for candidate in (path / "checkpoints" / "metrics.json", path / "metrics.json"):
+        if candidate.is_file():
+            run.final = {k: v for k, v in json.loads(candidate.read_text()).items() if isinstance(v, (int, float))}
+            break
+    return run
+
+
+def _series(ea, tag: str) -> tuple[np.ndarray, np.ndarray]:
+    events = ea.Scalars(tag)
+    return np.array([e.step for e in events], float), np.array([e.value for e in events], float)
+
+
+def group_key(run: Run, by: str) -> str:
+    node = run.config
+    for part in by.split("."):
+        if not isinstance(node, dict) or part not in node:
+            raise ValueError(f"--by {by!r} is invalid: run {run.path} has no config key {by!r}")
+        node = node[part]
+    return str(node)
+
+
+def smooth(values: np.ndarray, weight: float) -> np.ndarray:
+    """TensorBoard's exponential moving average."""
+    out, last = np.empty_like(values), values[0] if len(values) else 0.0
+    for i, v in enumerate(values):
+        last = weight * last + (1 - weight) * v
+        out[i] = last
+    return out
+
+
+def plot_figures(groups: dict[str, list[Run]], out: Path, weight: float) -> list[Path]:
+    written = []
+    for name, (title, series, ylabel) in FIGURES.items():
+        fig, axes = plt.subplots(1, len(series), figsize=(6 * len(series), 4), dpi=100, squeeze=False)
+        drawn = False
+        for ax, (tag, label) in zip(axes[0], series, strict=True):
+            for g, runs in groups.items():
+                curves = [r.scalars[tag] for r in runs if tag in r.scalars and len(r.scalars[tag][0])]
+                if not curves:
+                    continue
+                grid = np.linspace(0, min(c[0][-1] for c in curves), 200)
+                ys = np.stack([np.interp(grid, c[0], smooth(c[1], weight)) for c in curves])
+                line, = ax.plot(grid, ys.mean(0), label=f"{g} ({len(curves)} seed{'s' * (len(curves) > 1)})")
+                ax.fill_between(grid, ys.min(0), ys.max(0), color=line.get_color(), alpha=0.2)
+                drawn = True
+            ax.set_xlabel("episodes")
+            ax.set_ylabel(label or ylabel)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8)
+        fig.suptitle(title)
+        fig.tight_layout()
+        if drawn:
+            fig.savefig(out / name)
+            written.append(out / name)
+        plt.close(fig)
+    return written
+
+
+def table(groups: dict[str, list[Run]]) -> list[dict]:
+    rows = []
+    for g, runs in groups.items():
+        finals = [r.final for r in runs if r.final]
+        row = {"group": g, "seeds": len(finals)}
+        for m in TABLE_METRICS:
+            mean, ci = mean_ci(torch.tensor([f[m] for f in finals if m in f], dtype=torch.float64))
+            row[m], row[f"{m}_ci95"] = mean, ci
+        paper = PAPER.get(g)
+        row.update(paper_CBRO=paper[0] if paper else None, paper_UDBLT=paper[1] if paper else None,
+                   paper_RFSE=paper[2] if paper else None)
+        rows.append(row)
+    return rows
+
+
+def write_table(rows: list[dict], out: Path) -> tuple[Path, Path]:
+    with (out / "table1.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    lines = ["| group | seeds | episode reward | CBRS (%) | CBRO (%) | UDBLT (m) | RFSE (m) | success "
+             "| paper CBRO (%) | paper UDBLT (m) | paper RFSE (m) |", "|---" * 11 + "|"]
+
+    def cell(r, m):
+        if np.isnan(r[m]):
+            return "n/a"
+        return f"{r[m]:.3g}" + ("" if np.isnan(r[f"{m}_ci95"]) else f" ± {r[f'{m}_ci95']:.2g}")
+
+    for r in rows:
+        paper = [("" if r[k] is None else f"{r[k]}") for k in ("paper_CBRO", "paper_UDBLT", "paper_RFSE")]
+        lines.append("| " + " | ".join([r["group"], str(r["seeds"]), *[cell(r, m) for m in TABLE_METRICS], *paper])
+                     + " |")
+    md = out / "table1.md"
+    md.write_text("\n".join(lines) + "\n\nmean ± 95% CI across seeds of each run's final evaluation.\n")
+    return md, out / "table1.csv"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Figures 6-9 and Table 1 from training runs")
+    parser.add_argument("runs", nargs="+", help="run directories or directories holding them (a sweep)")
+    parser.add_argument("--by", default="algo.name", help="config key to group runs by (default algo.name)")
+    parser.add_argument("--out", default=None, help="output directory (default: the first RUNS argument)")
+    parser.add_argument("--smooth", type=float, default=0.8, help="EMA weight in [0, 1) (default 0.8)")
+    args = parser.parse_args(argv)
+    try:
+        if not 0 <= args.smooth < 1:
+            raise ValueError(f"--smooth = {args.smooth} is invalid: must be in [0, 1)")
+        runs = [load_run(p) for p in find_runs(args.runs)]
+        sizes = {r.config.get("env", {}).get("num_robots") for r in runs}
+        if len(sizes) > 1 and args.by != "env.num_robots":
+            raise ValueError(f"runs mix team sizes {sorted(sizes)}: compare one N at a time (or --by env.num_robots)")
+        groups: dict[str, list[Run]] = {}
+        for r in runs:
+            groups.setdefault(group_key(r, args.by), []).append(r)
+        out = Path(args.out or args.runs[0])
+        out.mkdir(parents=True, exist_ok=True)
+        figs = plot_figures(groups, out, args.smooth)
+        md, cs = write_table(table(groups), out)
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    print(md.read_text())
+    print("wrote " + ", ".join(str(p) for p in [*figs, md, cs]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,64 @@
+"""Render one evaluation episode of a policy: ``python -m formation_rl.visualize ckpt=PATH``.
+
+Writes ``episode.gif`` (the episode) and ``trajectories.png`` (the paper's Figure 10: paths, the
+formation at chosen steps, the obstacle area, collisions) into ``out`` (default: beside the checkpoint).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import hydra
+import torch
+from hydra.core.config_store import ConfigStore
+from omegaconf import DictConfig
+
+from formation_rl.cli import one_line_errors
+from formation_rl.envs import FormationEnv
+from formation_rl.envs.metrics import episode_metrics, summarize
+from formation_rl.envs.render import plot_trajectories, save_gif
+from formation_rl.evaluate import EVAL_SEED
+
+
+@dataclass
+class RenderConfig:
+    ckpt: str | None = None  # policy.pt, last.pt or a run directory
+    seed: int = EVAL_SEED  # the held-out scenario to show
+    steps: list[int] = field(default_factory=lambda: [10, 35, 95, 120])  # formation snapshots (Figure 10)
+    out: str | None = None
+    gif: bool = True
+    fps: int = 15
+
+
+ConfigStore.instance().store(name="render_schema", node=RenderConfig)
+
+
+@hydra.main(config_path="../conf", config_name="render", version_base=None)
+@one_line_errors
+def main(cfg: DictConfig) -> None:
+    from formation_rl.policy import load_policy, policy_path
+
+    if not cfg.ckpt:
+        raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt or run directory (make render CKPT=...)")
+    path = policy_path(cfg.ckpt)
+    policy = load_policy(path)
+    env_cfg = policy.env_config
+    bad = [s for s in cfg.steps if not 0 <= s <= env_cfg.max_steps]
+    if bad:
+        raise ValueError(f"steps = {list(cfg.steps)} is invalid: each step must be in [0, {env_cfg.max_steps}]")
+    env = FormationEnv(1, config=env_cfg, seed=cfg.seed)
+    with torch.no_grad():
+        rollout = env.rollout(env_cfg.max_steps, policy.module, break_when_any_done=False)
+    m = summarize(episode_metrics(rollout, env_cfg.goal_radius))
+    out = Path(cfg.out) if cfg.out else path.parent
+    title = (f"{policy.algo}: CBRO {m['CBRO']:.1f}%  UDBLT {m['UDBLT']:.2f} m  RFSE {m['RFSE']:.2f} m  "
+             f"success {m['success']:.0f}")
+    png = plot_trajectories(rollout, env_cfg, out / "trajectories.png", steps=tuple(cfg.steps), title=title)
+    print(f"wrote {png}")
+    if cfg.gif:
+        print(f"wrote {save_gif(rollout, out / 'episode.gif', env_cfg, fps=cfg.fps)}")
+
+
+if __name__ == "__main__":
+    main()

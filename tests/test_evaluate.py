@@ -1,0 +1,135 @@
+"""Evaluation (SPEC §6 protocol), rendering and the report: numbers, files, errors."""
+
+import csv
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+import yaml
+from torch.utils.tensorboard import SummaryWriter
+
+from formation_rl import report
+from formation_rl.envs import EnvConfig, FormationEnv
+from formation_rl.envs.metrics import episode_metrics
+from formation_rl.evaluate import evaluate_policy, mean_ci
+from formation_rl.trainer import Trainer
+
+from test_train import tiny
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def scripted(td):
+    """A hand-made controller: every robot pushes towards the goal's quadrant, +x +y."""
+    td.set(("agents", "action"), torch.full(td["agents", "observation"].shape[:-1] + (2,), 0.5))
+    return td
+
+
+def test_mean_ci_on_known_numbers():
+    mean, ci = mean_ci(torch.tensor([1.0, 2.0, 3.0, 4.0, 5.0]))
+    assert mean == 3.0 and ci == pytest.approx(2.776 * math.sqrt(2.5) / math.sqrt(5), abs=1e-9)
+    mean, ci = mean_ci(torch.ones(100) * 2)
+    assert (mean, ci) == (2.0, 0.0)
+    assert math.isnan(mean_ci(torch.tensor([1.0]))[1])
+
+
+def test_evaluation_equals_the_metrics_module_on_the_same_rollouts():
+    cfg = EnvConfig(max_steps=30)
+    per_episode = evaluate_policy(scripted, cfg, episodes=8, num_envs=4, seed=11, progress=False)
+    env = FormationEnv(4, config=cfg, seed=11)
+    rollouts = [env.rollout(30, scripted, break_when_any_done=False) for _ in range(2)]
+    expected = [episode_metrics(r, cfg.goal_radius) for r in rollouts]
+    for k, v in per_episode.items():
+        torch.testing.assert_close(v, torch.cat([e[k] for e in expected]))
+    assert per_episode["CBRO"].shape == (8,)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    run = tmp_path_factory.mktemp("run")
+    Trainer(tiny("per_matd3", frames=800), run).train()
+    return run
+
+
+def _cli(module, *args):
+    return subprocess.run([sys.executable, "-m", module, *args], cwd=ROOT, capture_output=True, text=True,
+                          timeout=600)
+
+
+def test_eval_cli_writes_json_and_csv(trained, tmp_path):
+    out = _cli("formation_rl.evaluate", f"ckpt={trained}", "episodes=12", "num_envs=5", f"out={tmp_path}")
+    assert out.returncode == 0, out.stderr[-2000:]
+    js = json.loads((tmp_path / "metrics.json").read_text())
+    assert js["eval"]["episodes"] == 12 and js["eval"]["env"]["num_robots"] == 3 and js["length"] == 20
+    rows = {r["metric"]: r for r in csv.DictReader((tmp_path / "metrics.csv").open())}
+    assert float(rows["CBRO"]["mean"]) == pytest.approx(js["CBRO"]) and "success" in rows
+    assert "95% CI" in out.stdout
+    # overrides change the world; a world the policy cannot read is one clear error
+    out = _cli("formation_rl.evaluate", f"ckpt={trained}", "episodes=3", "env.max_steps=7", f"out={tmp_path}")
+    assert out.returncode == 0 and json.loads((tmp_path / "metrics.json").read_text())["length"] == 7
+    out = _cli("formation_rl.evaluate", f"ckpt={trained}", "env.num_robots=4", f"out={tmp_path}/x")
+    assert out.returncode == 2 and "env.num_robots = 4 is invalid: the policy was trained with 3 robots" in out.stderr
+    out = _cli("formation_rl.evaluate", "ckpt=/nonexistent/run")
+    assert out.returncode == 2 and "ckpt = '/nonexistent/run' is invalid" in out.stderr
+
+
+def test_render_cli_writes_gif_and_figure_10(trained, tmp_path):
+    out = _cli("formation_rl.visualize", f"ckpt={trained}", "steps=[2,10,19]", f"out={tmp_path}")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert (tmp_path / "trajectories.png").stat().st_size > 10_000 and (tmp_path / "episode.gif").exists()
+    out = _cli("formation_rl.visualize", f"ckpt={trained}", "steps=[500]", f"out={tmp_path}")
+    assert out.returncode == 2 and "steps = [500] is invalid" in out.stderr
+
+
+def synthetic_run(root: Path, algo: str, seed: int, final: dict, slope: float) -> Path:
+    run = root / f"{algo}_seed{seed}"
+    (run / ".hydra").mkdir(parents=True)
+    (run / ".hydra" / "config.yaml").write_text(yaml.safe_dump({"algo": {"name": algo}, "seed": seed,
+                                                                "env": {"num_robots": 5}}))
+    w = SummaryWriter(str(run / "tb"))
+    for k in range(10):
+        frames = 1500 * (k + 1)
+        w.add_scalar("perf/episodes", 10 * (k + 1), frames)
+        for tag in ("episode_reward", "CBRS", "CBRO", "UDBLT", "RFSE"):
+            w.add_scalar(f"train/{tag}", slope * k, frames)
+    w.close()
+    (run / "metrics.json").write_text(json.dumps(final))
+    return run
+
+
+def test_report_on_two_synthetic_runs(tmp_path):
+    base = {"episode_reward": -100.0, "CBRS": 1.0, "CBRO": 2.0, "UDBLT": 0.1, "RFSE": 0.5, "success": 0.5}
+    synthetic_run(tmp_path, "matd3", 0, base, 1.0)
+    synthetic_run(tmp_path, "matd3", 1, {**base, "CBRO": 4.0, "success": 1.0}, 2.0)
+    assert report.main([str(tmp_path), "--smooth", "0"]) == 0
+    for name in report.FIGURES:
+        assert (tmp_path / name).stat().st_size > 5_000
+    rows = list(csv.DictReader((tmp_path / "table1.csv").open()))
+    assert len(rows) == 1 and rows[0]["group"] == "matd3" and rows[0]["seeds"] == "2"
+    assert float(rows[0]["CBRO"]) == pytest.approx(3.0) and float(rows[0]["success"]) == pytest.approx(0.75)
+    assert float(rows[0]["CBRO_ci95"]) == pytest.approx(12.706 * math.sqrt(2.0) / math.sqrt(2), rel=1e-6)
+    assert float(rows[0]["paper_CBRO"]) == 4.29
+    assert "| matd3 | 2 |" in (tmp_path / "table1.md").read_text()
+
+
+def test_report_errors(tmp_path, capsys):
+    assert report.main([str(tmp_path)]) == 2
+    assert "no training run" in capsys.readouterr().err
+    assert report.main([str(tmp_path / "missing")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("launcher", ["local", "slurm_local"])
+def test_two_job_multirun(tmp_path, launcher):
+    out = _cli("formation_rl.train", "-m", f"hydra/launcher={launcher}", f"hydra.sweep.dir={tmp_path}",
+               "algo=maddpg,matd3", "total_frames=400", "num_envs=4", "steps_per_batch=20",
+               "algo.warmup_frames=160", "algo.batch_size=32", "eval_episodes=2", "env.max_steps=20",
+               "model.hidden=[16,16]", "threads=1", "progress=false")
+    assert out.returncode == 0, out.stderr[-3000:]
+    for algo in ("maddpg", "matd3"):
+        assert (tmp_path / f"{algo}_seed0" / "metrics.json").is_file()
+        assert list((tmp_path / f"{algo}_seed0" / "tb").glob("events*"))
