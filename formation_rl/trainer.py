@@ -85,6 +85,7 @@ class Trainer:
         self.buffer = make_replay_buffer(a, dev)
         self.tracker = EpisodeTracker(cfg.num_envs, cfg.env.goal_radius, dev)
         self.frames = self.episodes = 0
+        self._resumed_frames = 0  # frames already done when this process started (for frames/s)
         self.next_eval, self.next_checkpoint = cfg.eval_interval, cfg.checkpoint_interval
         self.last_eval: dict[str, float] = {}
         self.eval_frame = -1  # frames at the last evaluation
@@ -191,7 +192,7 @@ class Trainer:
         return latest
 
     def _session_frames(self) -> int:
-        return self.frames - getattr(self, "_resumed_frames", 0)
+        return self.frames - self._resumed_frames
 
     def _postfix(self, latest: dict[str, float], start: float) -> dict[str, str]:
         fps = self._session_frames() / max(time.perf_counter() - start, 1e-9)

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 import torch
 import yaml
+from test_train import tiny
 from torch.utils.tensorboard import SummaryWriter
 
 from formation_rl import report
@@ -17,8 +18,6 @@ from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
 from formation_rl.evaluate import evaluate_policy, mean_ci
 from formation_rl.trainer import Trainer
-
-from test_train import tiny
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -140,7 +140,7 @@ def plot_trajectories(rollout: TensorDictBase, cfg: EnvConfig, path: str | Path,
         if len(tt):
             ax.scatter(pos[tt + 1, ii, 0], pos[tt + 1, ii, 1], marker="x", color="black", s=18, zorder=9,
                        label="collision")
-            ax.legend(loc="lower right", fontsize=8)
+            ax.legend(loc="upper left", fontsize=8)
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path)
