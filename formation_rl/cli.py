@@ -1,10 +1,13 @@
-"""Shared command-line behaviour of the Hydra entry points."""
+"""Shared command-line behaviour of the Hydra entry points: one-line errors, before any compute."""
 
 from __future__ import annotations
 
 import functools
 import sys
 from collections.abc import Callable
+from pathlib import Path
+
+CONF = Path(__file__).resolve().parent.parent / "conf"
 
 
 def one_line_errors(main: Callable) -> Callable:
@@ -19,3 +22,48 @@ def one_line_errors(main: Callable) -> Callable:
             sys.exit(2)
 
     return wrapper
+
+
+def check_overrides(schema: type, groups: tuple[str, ...], argv: list[str] | None = None) -> None:
+    """Check command-line overrides against the config groups and the typed schema, the way Hydra
+    would, but fail with one line: ``error: <key> = <value> is invalid: ...`` and exit code 2.
+
+    Hydra's own messages for these cases span several lines; everything else is left to Hydra.
+    """
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
+    argv = sys.argv[1:] if argv is None else argv
+    args = [a for a in argv if "=" in a and not a.startswith("-")]
+    try:
+        overrides = OverridesParser.create().parse_overrides(args)
+    except Exception:  # noqa: BLE001  (malformed: Hydra reports it)
+        return
+    base = OmegaConf.structured(schema)
+    for o in overrides:
+        key = o.key_or_group
+        if key.startswith("hydra") or o.is_delete() or o.is_add() or o.is_force_add():
+            continue
+        values = list(o.sweep_string_iterator()) if o.is_sweep_override() else [o.value()]
+        try:
+            if key in groups:
+                options = sorted(p.stem for p in (CONF / key).glob("*.yaml"))
+                for v in values:
+                    if str(v) not in options:
+                        raise ValueError(f"{key} = {v!r} is invalid: must be one of {', '.join(options)}")
+                continue
+            for v in values:
+                try:
+                    OmegaConf.update(base.copy(), key, v, merge=True)
+                except OmegaConfBaseException as err:
+                    parent, _, leaf = key.rpartition(".")
+                    node = OmegaConf.select(base, parent) if parent else base
+                    if node is None or not hasattr(node, "keys") or leaf not in node:
+                        allowed = ", ".join(sorted(map(str, node.keys()))) if hasattr(node, "keys") else "none"
+                        raise ValueError(f"{key}: unknown key; allowed here: {allowed}") from None
+                    reason = str(err).splitlines()[0]
+                    raise ValueError(f"{key} = {v!r} is invalid: {reason}") from None
+        except ValueError as err:
+            print(f"error: {err}", file=sys.stderr)
+            sys.exit(2)

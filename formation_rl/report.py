@@ -191,6 +191,8 @@ def main(argv: list[str] | None = None) -> int:
         out = Path(args.out or args.runs[0])
         out.mkdir(parents=True, exist_ok=True)
         figs = plot_figures(groups, out, args.smooth)
+        if not figs:
+            raise ValueError(f"runs: none of {len(runs)} run(s) has train/* curves in tb/ (formation_rl runs?)")
         md, cs = write_table(table(groups), out)
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)

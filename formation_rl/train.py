@@ -37,4 +37,8 @@ def main(cfg: DictConfig) -> float:
 
 
 if __name__ == "__main__":
+    from formation_rl.cli import check_overrides
+    from formation_rl.config import TrainConfig
+
+    check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "env"))
     main()

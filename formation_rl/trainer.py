@@ -23,7 +23,7 @@ from torchrl.record.loggers.tensorboard import TensorboardLogger
 from tqdm import tqdm
 
 import formation_rl
-from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, make_algorithm
+from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, NonFiniteError, make_algorithm
 from formation_rl.config import TrainConfig, validate
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
@@ -51,10 +51,13 @@ def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
 
 def atomic_save(obj, path: Path) -> None:
     """``torch.save`` to a temporary file, then rename: a crash never leaves a half-written file."""
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
-    torch.save(obj, tmp)
-    os.replace(tmp, path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        torch.save(obj, tmp)
+        os.replace(tmp, path)
+    except OSError as err:
+        raise ValueError(f"cannot write {path}: {err.strerror or err}; the previous file there is unchanged") from None
 
 
 class Trainer:
@@ -63,6 +66,7 @@ class Trainer:
         validate(cfg)
         cfg.env.validate()
         self.cfg, self.run_dir = cfg, Path(run_dir)
+        _check_writable(self.run_dir)
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
         a = cfg.algo
@@ -90,11 +94,13 @@ class Trainer:
         self.last_eval: dict[str, float] = {}
         self.eval_frame = -1  # frames at the last evaluation
         self.logger: TensorboardLogger | None = None
+        self._rng = _rng_state()  # train() starts from here, whatever ran in between (or the checkpoint's)
 
     # ------------------------------------------------------------------ the loop
     def train(self) -> dict[str, float]:
         """Train to ``total_frames``; return the final evaluation's metrics."""
         cfg, a = self.cfg, self.cfg.algo
+        _set_rng_state(self._rng)
         self.logger = TensorboardLogger(exp_name="tb", log_dir=str(self.run_dir))
         remaining = cfg.total_frames - self.frames
         per_batch = cfg.num_envs * cfg.steps_per_batch
@@ -116,6 +122,7 @@ class Trainer:
                 if self.frames >= cfg.total_frames:
                     break
                 self.frames += data.numel()
+                _check_inputs(data, self.frames)
                 finished = self.tracker.update(data)
                 self.episodes += finished["length"].numel()
                 self.buffer.extend(to_transitions(data))
@@ -124,7 +131,12 @@ class Trainer:
                 losses = []
                 while credit >= a.update_every:
                     credit -= a.update_every
-                    losses.append(self._gradient_step())
+                    try:
+                        losses.append(self._gradient_step())
+                    except NonFiniteError as err:
+                        raise NonFiniteError(f"training stopped at frame {self.frames:,} (gradient step "
+                                             f"{self.algo.critic_steps + 1}): {err}; the last good checkpoint "
+                                             f"{self.run_dir / CHECKPOINT} is kept") from None
                 self.noise.step(data.numel())
                 latest = self._log_train(finished, losses, latest, start, steps0)
                 if self.frames >= self.next_eval:
@@ -214,9 +226,7 @@ class Trainer:
             "noise": self.noise.state_dict(),
             "counters": {"frames": self.frames, "episodes": self.episodes, "next_eval": self.next_eval,
                          "next_checkpoint": self.next_checkpoint},
-            "rng": {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate(),
-                    "env": self.env._generator.get_state(),
-                    "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None},
+            "rng": {**_rng_state(), "env": self.env._generator.get_state()},
             "sampler": self.buffer.sampler.state_dict() if self.cfg.algo.prioritized and self.cfg.save_buffer else None,
         }
         path = self.run_dir / CHECKPOINT
@@ -249,12 +259,8 @@ class Trainer:
         self.frames, self.episodes = c["frames"], c["episodes"]
         self.next_eval, self.next_checkpoint = c["next_eval"], c["next_checkpoint"]
         self._resumed_frames = self.frames
-        torch.set_rng_state(state["rng"]["torch"])
-        np.random.set_state(state["rng"]["numpy"])
-        random.setstate(state["rng"]["python"])
+        self._rng = state["rng"]
         self.env._generator.set_state(state["rng"]["env"])
-        if state["rng"].get("cuda") is not None and torch.cuda.is_available():
-            torch.cuda.set_rng_state_all(state["rng"]["cuda"])
         buffer_dir = path.parent / "buffer"
         if self.cfg.save_buffer and buffer_dir.exists():
             self.buffer.loads(buffer_dir)
@@ -264,6 +270,38 @@ class Trainer:
         torch.manual_seed(seed)
         np.random.seed(seed % 2**32)
         random.seed(seed)
+
+
+def _rng_state() -> dict:
+    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate(),
+            "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None}
+
+
+def _set_rng_state(state: dict) -> None:
+    torch.set_rng_state(state["torch"])
+    np.random.set_state(state["numpy"])
+    random.setstate(state["python"])
+    if state.get("cuda") is not None and torch.cuda.is_available():
+        torch.cuda.set_rng_state_all(state["cuda"])
+
+
+def _check_inputs(data, frames: int) -> None:
+    """Stop on a NaN or infinite observation or reward before it reaches the replay buffer."""
+    for key in (("next", "agents", "observation"), ("next", "agents", "reward")):
+        if not torch.isfinite(data.get(key)).all():
+            raise NonFiniteError(f"training stopped at frame {frames:,}: a non-finite {key[-1]} came from the "
+                                 "environment; the last good checkpoint is kept")
+
+
+def _check_writable(run_dir: Path) -> None:
+    """Fail before any compute when the run directory cannot take checkpoints and logs."""
+    try:
+        (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)
+        probe = run_dir / "checkpoints" / ".write_test"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as err:
+        raise ValueError(f"run directory {run_dir} is not writable: {err.strerror or err}") from None
 
 
 def resolve_checkpoint(path: str | Path, run_dir: Path) -> Path:
@@ -283,6 +321,9 @@ def load_checkpoint_file(path: Path) -> dict:
     except Exception as err:  # truncated, corrupted, not a torch file
         kind = type(err).__name__
         raise ValueError(f"checkpoint {path} cannot be read ({kind}): it is truncated or corrupt") from None
-    if not isinstance(state, dict) or state.get("format") != FORMAT:
-        raise ValueError(f"checkpoint {path} is not a formation_rl checkpoint of format {FORMAT}")
+    if not isinstance(state, dict) or "format" not in state:
+        raise ValueError(f"checkpoint {path} is not a formation_rl checkpoint")
+    if state["format"] != FORMAT:
+        raise ValueError(f"checkpoint {path} has format {state['format']} (formation_rl {state.get('version')}); "
+                         f"this formation_rl {formation_rl.__version__} reads format {FORMAT}")
     return state

@@ -61,4 +61,7 @@ def main(cfg: DictConfig) -> None:
 
 
 if __name__ == "__main__":
+    from formation_rl.cli import check_overrides
+
+    check_overrides(RenderConfig, ())
     main()

@@ -132,3 +132,29 @@ def test_two_job_multirun(tmp_path, launcher):
     for algo in ("maddpg", "matd3"):
         assert (tmp_path / f"{algo}_seed0" / "metrics.json").is_file()
         assert list((tmp_path / f"{algo}_seed0" / "tb").glob("events*"))
+
+
+def test_report_rejects_mixed_team_sizes_and_runs_without_curves(tmp_path, capsys):
+    base = {"episode_reward": -1.0, "CBRS": 0.0, "CBRO": 0.0, "UDBLT": 0.0, "RFSE": 0.0, "success": 0.0}
+    run = synthetic_run(tmp_path / "a", "matd3", 0, base, 1.0)
+    other = synthetic_run(tmp_path / "a", "matd3", 1, base, 1.0)
+    cfg = yaml.safe_load((other / ".hydra" / "config.yaml").read_text())
+    cfg["env"]["num_robots"] = 7
+    (other / ".hydra" / "config.yaml").write_text(yaml.safe_dump(cfg))
+    assert report.main([str(tmp_path / "a")]) == 2
+    assert "runs mix team sizes [5, 7]" in capsys.readouterr().err
+    for f in (run / "tb").glob("events*"):
+        f.unlink()
+    assert report.main([str(run)]) == 2
+    assert "has train/* curves" in capsys.readouterr().err
+
+
+def test_corrupt_or_foreign_checkpoint_is_one_clear_error(tmp_path):
+    from formation_rl.policy import load_policy
+
+    (tmp_path / "policy.pt").write_bytes(b"\x00garbage")
+    with pytest.raises(ValueError, match="cannot be read .*: it is truncated or corrupt"):
+        load_policy(tmp_path)
+    torch.save({"format": 99, "version": "9.9"}, tmp_path / "policy.pt")
+    with pytest.raises(ValueError, match=r"has format 99 \(formation_rl 9.9\); this formation_rl .* reads format 1"):
+        load_policy(tmp_path)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from formation_rl.algorithms.base import PRIORITY_KEY, WEIGHT_KEY, Algorithm
+from formation_rl.algorithms.base import PRIORITY_KEY, WEIGHT_KEY, Algorithm, NonFiniteError
 from formation_rl.algorithms.maddpg import MADDPG
 from formation_rl.algorithms.matd3 import MATD3
 from formation_rl.config import AlgoConfig
@@ -15,4 +15,4 @@ def make_algorithm(actor, critic, cfg: AlgoConfig) -> Algorithm:
     return MATD3(actor, critic, cfg)
 
 
-__all__ = ["Algorithm", "MADDPG", "MATD3", "PRIORITY_KEY", "WEIGHT_KEY", "make_algorithm"]
+__all__ = ["Algorithm", "MADDPG", "MATD3", "NonFiniteError", "PRIORITY_KEY", "WEIGHT_KEY", "make_algorithm"]

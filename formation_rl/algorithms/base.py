@@ -15,6 +15,10 @@ KEYS = dict(
     done=("agents", "done"),
     terminated=("agents", "terminated"),
 )
+class NonFiniteError(ValueError):
+    """A loss, gradient or input went NaN or infinite; nothing was stepped with it."""
+
+
 PRIORITY_KEY = "td_error"  # where |delta| [B, N] goes for the prioritized buffer (eq. 17)
 WEIGHT_KEY = "priority_weight"  # importance weights [B] from the prioritized buffer (eq. 20)
 
@@ -56,6 +60,7 @@ class Algorithm:
             critic_loss = per_sample.mean()
         self.critic_optim.zero_grad(set_to_none=True)
         critic_loss.backward()
+        critic_grad = _check_finite(critic_loss, self.critic_params, "critic")
         self.critic_optim.step()
         self.critic_steps += 1
 
@@ -65,13 +70,14 @@ class Algorithm:
             td_error = td_error.amax(0)  # max over the twin critics (eq. 17)
         batch.set(PRIORITY_KEY, td_error.detach())
         out = {"loss_critic": critic_loss.detach(), "q_value": pred.mean().detach(),
-               "td_error": td_error.mean().detach()}
+               "td_error": td_error.mean().detach(), "grad_norm_critic": critic_grad}
 
         if self.critic_steps % self.cfg.policy_delay == 0:
             # actor loss without importance weights: eq. 21-22 weight the critic losses only
             actor_loss = self._actor_loss(batch.exclude(WEIGHT_KEY, PRIORITY_KEY))[0].mean()
             self.actor_optim.zero_grad(set_to_none=True)
             actor_loss.backward()
+            out["grad_norm_actor"] = _check_finite(actor_loss, self.actor_params, "actor")
             self.actor_optim.step()
             self.actor_steps += 1
             self.target_updater.step()
@@ -100,3 +106,13 @@ class Algorithm:
         self.critic_optim.load_state_dict(state["critic_optim"])
         self.critic_steps = state["critic_steps"]
         self.actor_steps = state["actor_steps"]
+
+
+def _check_finite(loss: torch.Tensor, params: list[torch.Tensor], name: str) -> torch.Tensor:
+    """The gradient norm of ``params``; raise before any optimiser step if it or the loss is not finite."""
+    if not torch.isfinite(loss):
+        raise NonFiniteError(f"the {name} loss went non-finite ({loss.item()})")
+    norm = torch.nn.utils.clip_grad_norm_(params, float("inf"))
+    if not torch.isfinite(norm):
+        raise NonFiniteError(f"the {name} gradient went non-finite (norm {norm.item()})")
+    return norm.detach()
