@@ -88,6 +88,13 @@ def format_table(summary: dict[str, dict[str, float]], title: str) -> str:
 
 def write_results(summary: dict[str, dict[str, float]], out_dir: Path, meta: dict) -> tuple[Path, Path]:
     """``metrics.json`` (means, CIs and the evaluation's settings) and ``metrics.csv``, written whole."""
+    try:
+        return _write_results(summary, out_dir, meta)
+    except OSError as err:
+        raise ValueError(f"cannot write results to {out_dir}: {err.strerror or err}") from None
+
+
+def _write_results(summary: dict[str, dict[str, float]], out_dir: Path, meta: dict) -> tuple[Path, Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     flat = {k: v["mean"] for k, v in summary.items()}
     js, cs = out_dir / "metrics.json", out_dir / "metrics.csv"

@@ -189,11 +189,14 @@ def main(argv: list[str] | None = None) -> int:
         for r in runs:
             groups.setdefault(group_key(r, args.by), []).append(r)
         out = Path(args.out or args.runs[0])
-        out.mkdir(parents=True, exist_ok=True)
-        figs = plot_figures(groups, out, args.smooth)
-        if not figs:
-            raise ValueError(f"runs: none of {len(runs)} run(s) has train/* curves in tb/ (formation_rl runs?)")
-        md, cs = write_table(table(groups), out)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            figs = plot_figures(groups, out, args.smooth)
+            if not figs:
+                raise ValueError(f"runs: none of {len(runs)} run(s) has train/* curves in tb/ (formation_rl runs?)")
+            md, cs = write_table(table(groups), out)
+        except OSError as err:
+            raise ValueError(f"cannot write the report to {out}: {err.strerror or err}") from None
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -54,10 +54,13 @@ def main(cfg: DictConfig) -> None:
     out = Path(cfg.out) if cfg.out else path.parent
     title = (f"{policy.algo}: CBRO {m['CBRO']:.1f}%  UDBLT {m['UDBLT']:.2f} m  RFSE {m['RFSE']:.2f} m  "
              f"success {m['success']:.0f}")
-    png = plot_trajectories(rollout, env_cfg, out / "trajectories.png", steps=tuple(cfg.steps), title=title)
-    print(f"wrote {png}")
-    if cfg.gif:
-        print(f"wrote {save_gif(rollout, out / 'episode.gif', env_cfg, fps=cfg.fps)}")
+    try:
+        png = plot_trajectories(rollout, env_cfg, out / "trajectories.png", steps=tuple(cfg.steps), title=title)
+        print(f"wrote {png}")
+        if cfg.gif:
+            print(f"wrote {save_gif(rollout, out / 'episode.gif', env_cfg, fps=cfg.fps)}")
+    except OSError as err:
+        raise ValueError(f"cannot write pictures to {out}: {err.strerror or err}") from None
 
 
 if __name__ == "__main__":

@@ -144,3 +144,35 @@ def test_bad_training_input_is_one_line_before_compute(tmp_path, capsys, overrid
     text = capsys.readouterr().err.strip().removeprefix("error: ") if err.type is SystemExit else str(err.value)
     assert message in text and "\n" not in text
     assert not list(tmp_path.rglob("*.pt"))  # nothing written
+
+
+BAD_OTHER = [  # (entry point, arguments, the one line it must print)
+    ("formation_rl.evaluate", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
+    ("formation_rl.evaluate", ["ckpt=x", "episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.evaluate", ["ckpt=x", "num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.evaluate", ["ckpt=x", "formation=star"], "formation = 'star' is invalid: must be one of chain, v"),
+    ("formation_rl.evaluate", ["ckpt=x", "env.num_robot=3"], "env.num_robot: unknown key; allowed here:"),
+    ("formation_rl.evaluate", ["ckpt=x", "episodes=many"], "episodes = 'many' is invalid: Value 'many'"),
+    ("formation_rl.visualize", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
+    ("formation_rl.visualize", ["ckpt=x", "fps=fast"], "fps = 'fast' is invalid: Value 'fast'"),
+    ("formation_rl.rollout", ["num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.rollout", ["episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.rollout", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
+    ("formation_rl.report", ["/no/such/dir"], "runs: '/no/such/dir' does not exist"),
+    ("formation_rl.report", [".", "--smooth", "2"], "--smooth = 2.0 is invalid: must be in [0, 1)"),
+    ("formation_rl.train", ["-m", "algo=maddpg,ppo"], "algo = 'ppo' is invalid: must be one of maddpg, matd3"),
+]
+
+
+@pytest.mark.parametrize("module,args,message", BAD_OTHER, ids=[f"{m.split('.')[-1]} {' '.join(a)}"
+                                                                   for m, a, _ in BAD_OTHER])
+def test_bad_input_of_the_other_entry_points(tmp_path, module, args, message):
+    """`make eval`, `make render`, `make demo`, `make compare`, `make sweep`: one line, exit code 2, no files."""
+    out = subprocess.run([sys.executable, "-m", module, *args, *([] if module.endswith("report") else
+                          [f"hydra.run.dir={tmp_path}", f"hydra.sweep.dir={tmp_path}"])],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                         env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
+    err = out.stderr.strip()
+    assert out.returncode == 2 and err.startswith("error: ") and "\n" not in err, err[-1500:]
+    assert message in err
+    assert not [p for p in tmp_path.rglob("*") if p.suffix in (".pt", ".json", ".csv", ".png", ".gif")]
