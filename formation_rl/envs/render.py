@@ -14,6 +14,7 @@ from tensordict import TensorDictBase  # noqa: E402
 
 from formation_rl.envs import formations  # noqa: E402
 from formation_rl.envs.config import EnvConfig  # noqa: E402
+from formation_rl.envs.rewards import Geometry, step_quantities  # noqa: E402
 
 LEADER, LEFT, RIGHT = "#d62728", "#1f77b4", "#2ca02c"
 
@@ -102,13 +103,19 @@ def save_gif(rollout: TensorDictBase, path: str | Path, cfg: EnvConfig, index: i
     return path
 
 
-def collisions(positions: np.ndarray, centers: np.ndarray, radii: np.ndarray, cfg: EnvConfig) -> np.ndarray:
-    """Per-robot collision flags of one state (SPEC §1): ``[N]`` bool, robot-robot or robot-obstacle."""
-    d = np.linalg.norm(positions[:, None] - positions[None], axis=-1) + np.eye(len(positions)) * 1e9
-    robot = (d - 2 * cfg.robot_radius < cfg.robot_collision_margin).any(1)
-    gap = np.linalg.norm(positions[:, None] - centers[None], axis=-1) - cfg.robot_radius - radii[None]
-    obstacle = (gap < cfg.obstacle_collision_margin).any(1) if len(radii) else np.zeros(len(positions), bool)
-    return robot | obstacle
+def collisions(positions: torch.Tensor, state: TensorDictBase, cfg: EnvConfig) -> np.ndarray:
+    """Per-robot collision flags ``[T, N]`` of positions ``[T, N, 2]`` in one copy's world ``state``,
+    by the environment's own rule (:func:`formation_rl.envs.rewards.step_quantities`)."""
+    t = positions.shape[0]
+    q = step_quantities(
+        positions.permute(2, 1, 0).float(),  # batch-last [2, N, T]: the T states as a batch
+        state["goal"].float()[:, None].expand(2, t),
+        state["obstacle_centers"].float().T[..., None].expand(-1, -1, t),
+        state["obstacle_radii"].float()[:, None].expand(-1, t),
+        Geometry.build(cfg, positions.device),
+        cfg,
+    )
+    return (q["robot_hit"] | q["obstacle_hit"]).T.cpu().numpy()
 
 
 def plot_trajectories(rollout: TensorDictBase, cfg: EnvConfig, path: str | Path, index: int = 0,
@@ -118,7 +125,6 @@ def plot_trajectories(rollout: TensorDictBase, cfg: EnvConfig, path: str | Path,
     states = rollout_states(rollout, index)
     pos = np.stack([s["positions"].cpu().numpy() for s in states])  # [T+1, N, 2]
     first = states[0]
-    centers, radii = first["obstacle_centers"].cpu().numpy(), first["obstacle_radii"].cpu().numpy()
     n = pos.shape[1]
     colors = role_colors(n)
     fig, ax = plt.subplots(figsize=(6, 6), dpi=100)
@@ -135,7 +141,7 @@ def plot_trajectories(rollout: TensorDictBase, cfg: EnvConfig, path: str | Path,
             for i in range(n):
                 ax.add_patch(plt.Circle(pos[t, i], cfg.robot_radius, color=colors[i], zorder=7))
             ax.annotate(f"step {t}", pos[t, 0] + np.array([0.15, 0.15]), fontsize=8, zorder=8)
-        hits = np.array([collisions(pos[t], centers, radii, cfg) for t in range(1, len(pos))])  # [T, N]
+        hits = collisions(torch.as_tensor(pos[1:]), first, cfg)  # [T, N], the states after each step
         tt, ii = np.nonzero(hits)
         if len(tt):
             ax.scatter(pos[tt + 1, ii, 0], pos[tt + 1, ii, 1], marker="x", color="black", s=18, zorder=9,

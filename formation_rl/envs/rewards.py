@@ -105,6 +105,8 @@ def step_quantities(
         "in_area": in_area,
         "goal_distance": goal_dist,
         "formation_error": formation_error,
+        "robot_hit": robot_hit,  # [N, B] per robot
+        "obstacle_hit": obstacle_hit,
         "robot_collision": nearest_robot.amin(0) < 2 * r + cfg.robot_collision_margin,  # [B]
         "obstacle_collision": nearest_obstacle.amin(0) < cfg.obstacle_collision_margin,
     }

@@ -34,3 +34,17 @@ def test_rollout_gif(tmp_path):
     path = save_gif(r, tmp_path / "a.gif", env.config, index=1)
     frames = imageio.mimread(path)
     assert len(frames) == 7  # the reset state and 6 steps
+
+
+def test_figure_collision_marks_follow_the_environment_rule():
+    import torch
+
+    from formation_rl.envs.render import collisions, rollout_states
+
+    env = FormationEnv(1, seed=3)
+    r = env.rollout(150, break_when_any_done=False)
+    states = rollout_states(r)
+    hits = collisions(torch.stack([s["positions"] for s in states])[1:], states[0], env.config)  # [T, N]
+    flags = (r["next", "robot_collision"] | r["next", "obstacle_collision"])[0, :, 0].numpy()
+    assert hits.shape == (150, 5) and flags.sum() > 0
+    assert (hits.any(1) == flags).all()
