@@ -114,7 +114,7 @@ def _write_results(summary: dict[str, dict[str, float]], out_dir: Path, meta: di
 def _overridden_env(cfg: DictConfig, base: EnvConfig) -> EnvConfig:
     """The checkpoint's world with only the env keys the user overrode on the command line."""
     overrides = HydraConfig.get().overrides.task
-    merged = OmegaConf.merge(OmegaConf.structured(base), {})
+    merged = OmegaConf.structured(base)
     for o in overrides:
         key = o.lstrip("+~").split("=", 1)[0]
         if key.startswith("env."):

@@ -124,15 +124,21 @@ def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device) -> di
     }
 
 
-def observation_index(n: int, m: int, device=None) -> torch.Tensor:
-    """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``.
+def _source_rows(n: int, m: int) -> tuple[int, ...]:
+    """First row of each block of the source :func:`observe` builds, and its total height.
 
-    Source rows: positions x (N), y (N); velocities x (N), y (N); p_lea - p_g (2); a zero (1);
+    Blocks: positions x (N), y (N); velocities x (N), y (N); p_lea - p_g (2); a zero (1);
     obstacle offsets x (N*M), y (N*M); sensed flags (N*M); obstacle-area flag (1).
     """
     P, V, G, Z = 0, 2 * n, 4 * n, 4 * n + 2
     OX, OY, S = Z + 1, Z + 1 + n * m, Z + 1 + 2 * n * m
     F = S + n * m
+    return P, V, G, Z, OX, OY, S, F, F + 1
+
+
+def observation_index(n: int, m: int, device=None) -> torch.Tensor:
+    """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``."""
+    P, V, G, Z, OX, OY, S, F, _ = _source_rows(n, m)
     rows = []
     for i in range(n):
         row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
@@ -155,16 +161,15 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     One gather of contiguous rows, then one transpose: no strided writes.
     """
     _, n, b = pos.shape
-    nm = q["sensed"].shape[0] * q["sensed"].shape[1]
-    source = torch.empty(4 * n + 4 + 3 * nm, b, dtype=pos.dtype, device=pos.device)  # rows as documented
-    source[: 2 * n] = pos.reshape(2 * n, b)
-    source[2 * n : 4 * n] = vel.reshape(2 * n, b)
-    source[4 * n : 4 * n + 2] = q["to_goal"]
-    source[4 * n + 2] = 0.0
-    o = 4 * n + 3
-    sensed = source[o + 2 * nm : o + 3 * nm].view_as(q["sensed"]).copy_(q["sensed"])  # [N, M, B] as 0/1
+    P, V, G, Z, OX, OY, S, F, height = _source_rows(n, q["sensed"].shape[1])
+    source = torch.empty(height, b, dtype=pos.dtype, device=pos.device)
+    source[P:V] = pos.reshape(2 * n, b)
+    source[V:G] = vel.reshape(2 * n, b)
+    source[G:Z] = q["to_goal"]
+    source[Z] = 0.0
+    sensed = source[S:F].view_as(q["sensed"]).copy_(q["sensed"])  # [N, M, B] as 0/1
     ox, oy = q["to_obstacle"]
-    torch.mul(ox, sensed, out=source[o : o + nm].view_as(ox))  # (p - c_j, 1) if sensed, else zeros
-    torch.mul(oy, sensed, out=source[o + nm : o + 2 * nm].view_as(oy))
-    source[-1] = q["in_area"]
+    torch.mul(ox, sensed, out=source[OX:OY].view_as(ox))  # (p - c_j, 1) if sensed, else zeros
+    torch.mul(oy, sensed, out=source[OY:S].view_as(oy))
+    source[F] = q["in_area"]
     return source.index_select(0, index).T.reshape(b, n, -1)
