@@ -9,7 +9,7 @@ CKPT ?=
 JOBS ?= $(shell nproc)
 SWEEP ?= outputs/sweep
 
-.PHONY: help setup train train-paper eval render sweep compare tensorboard demo test test-slow bench-env bench-step lint clean
+.PHONY: help setup train train-paper eval render sweep compare tensorboard demo test test-slow bench-env bench lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -56,8 +56,8 @@ test-slow: $(PY)  ## the long checks marked slow (10^6 random steps ...)
 bench-env: $(PY)  ## environment throughput, frames/s for B in {1, 64, 1024, 4096}
 	$(PY) benchmarks/env_throughput.py --json benchmarks/env_throughput.json $(ARGS)
 
-bench-step: $(PY)  ## milliseconds per gradient step of each algorithm (N=5, batch 1024)
-	$(PY) benchmarks/grad_step.py $(ARGS)
+bench: $(PY)  ## training throughput: gradient step vs matmul rate, end-to-end split, scaling in N and B (~10 min)
+	$(PY) benchmarks/train_throughput.py --json benchmarks/train_throughput.json $(ARGS)
 
 lint: $(PY)  ## ruff
 	$(VENV)/bin/ruff check formation_rl tests benchmarks

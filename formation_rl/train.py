@@ -32,6 +32,7 @@ def main(cfg: DictConfig) -> float:
     width = max(map(len, metrics))
     print(f"final evaluation ({cfg.eval_episodes} held-out episodes):")
     print("\n".join(f"  {k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
+    print(f"wall time {trainer.timings.total():.0f} s: {trainer.timings.summary()}")
     print(f"run directory: {run_dir}")
     return metrics["episode_reward"]
 

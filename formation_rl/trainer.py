@@ -29,6 +29,7 @@ from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
 from formation_rl.models import make_actor, make_critic
 from formation_rl.replay import make_replay_buffer, to_transitions
+from formation_rl.timing import Timings
 
 CHECKPOINT = "checkpoints/last.pt"
 POLICY = "checkpoints/policy.pt"
@@ -86,6 +87,8 @@ class Trainer:
             action_key=("agents", "action"), safe=True, device=dev,
         )
         self.explore = TensorDictSequential(self.actor, self.noise)
+        self.timings = Timings()  # wall time per section of the loop (train.log, perf/share_*)
+        self.timings.watch_policy(self.explore)
         self.buffer = make_replay_buffer(a, dev)
         self.tracker = EpisodeTracker(cfg.num_envs, cfg.env.goal_radius, dev)
         self.frames = self.episodes = 0
@@ -101,6 +104,7 @@ class Trainer:
         """Train to ``total_frames``; return the final evaluation's metrics."""
         cfg, a = self.cfg, self.cfg.algo
         _set_rng_state(self._rng)
+        setup = time.perf_counter()
         self.logger = TensorboardLogger(exp_name="tb", log_dir=str(self.run_dir))
         remaining = cfg.total_frames - self.frames
         per_batch = cfg.num_envs * cfg.steps_per_batch
@@ -111,21 +115,27 @@ class Trainer:
             self.env, self.explore, frames_per_batch=per_batch, total_frames=batches * per_batch,
             init_random_frames=random_batches * per_batch, device=cfg.device, auto_register_policy_transforms=False,
         )
+        self.timings.add("setup", time.perf_counter() - setup)
         bar = tqdm(total=cfg.total_frames, initial=self.frames, unit="frame", unit_scale=True,
                    disable=not cfg.progress, desc=a.name, dynamic_ncols=True)
         if self.frames == 0:
             self.evaluate()  # the untrained policy: the baseline every curve starts from
         credit, start, steps0 = 0, time.perf_counter(), self.algo.critic_steps
         latest: dict[str, float] = {}
+        timings, waited_from, policy_seconds = self.timings, time.perf_counter(), self.timings.seconds["policy"]
         try:
             for data in collector:
+                # the collector's wait is env stepping plus the policy's forward passes (timed by hooks)
+                timings.add("env", time.perf_counter() - waited_from - (timings.seconds["policy"] - policy_seconds))
                 if self.frames >= cfg.total_frames:
                     break
                 self.frames += data.numel()
-                _check_inputs(data, self.frames)
-                finished = self.tracker.update(data)
-                self.episodes += finished["length"].numel()
-                self.buffer.extend(to_transitions(data))
+                with timings("metrics"):
+                    _check_inputs(data, self.frames)
+                    finished = self.tracker.update(data)
+                    self.episodes += finished["length"].numel()
+                with timings("buffer_extend"):
+                    self.buffer.extend(to_transitions(data))
                 # one gradient step (every robot at once) per update_every collected frames
                 credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
                 losses = []
@@ -138,15 +148,18 @@ class Trainer:
                                              f"{self.algo.critic_steps + 1}): {err}; the last good checkpoint "
                                              f"{self.run_dir / CHECKPOINT} is kept") from None
                 self.noise.step(data.numel())
-                latest = self._log_train(finished, losses, latest, start, steps0)
+                with timings("logging"):
+                    latest = self._log_train(finished, losses, latest, start, steps0)
                 if self.frames >= self.next_eval:
                     self.evaluate()
                     self.next_eval += cfg.eval_interval
                 if self.frames >= self.next_checkpoint:
                     self.save_checkpoint()
                     self.next_checkpoint += cfg.checkpoint_interval
-                bar.update(data.numel())
-                bar.set_postfix(self._postfix(latest, start), refresh=False)
+                with timings("logging"):
+                    bar.update(data.numel())
+                    bar.set_postfix(self._postfix(latest, start), refresh=False)
+                waited_from, policy_seconds = time.perf_counter(), timings.seconds["policy"]
         finally:
             collector.shutdown()
             bar.close()
@@ -156,10 +169,13 @@ class Trainer:
         return final
 
     def _gradient_step(self) -> dict[str, torch.Tensor]:
-        batch = self.buffer.sample()
-        out = self.algo.update(batch)  # writes |delta| [B, N] at PRIORITY_KEY
+        with self.timings("buffer_sample"):
+            batch = self.buffer.sample()
+        with self.timings("update"):
+            out = self.algo.update(batch)  # writes |delta| [B, N] at PRIORITY_KEY
         if self.cfg.algo.prioritized:
-            self.buffer.update_tensordict_priority(batch)  # reduction max over robots (eq. 17)
+            with self.timings("priority"):
+                self.buffer.update_tensordict_priority(batch)  # reduction max over robots (eq. 17)
             out["priority_mean"] = batch.get(PRIORITY_KEY).amax(-1).mean()
             out["priority_max"] = batch.get(PRIORITY_KEY).max()
             out["weight_mean"] = batch.get(WEIGHT_KEY).mean()
@@ -173,9 +189,9 @@ class Trainer:
     def evaluate(self) -> dict[str, float]:
         """Deterministic actors on the fixed held-out set (``eval_episodes`` copies, ``eval_seed``)."""
         self.eval_env.set_seed(self.cfg.eval_seed)
-        with set_exploration_type(ExplorationType.DETERMINISTIC):
+        with self.timings("evaluation"), set_exploration_type(ExplorationType.DETERMINISTIC):
             rollout = self.eval_env.rollout(self.cfg.env.max_steps, self.actor, break_when_any_done=False)
-        metrics = summarize(episode_metrics(rollout, self.cfg.env.goal_radius))
+            metrics = summarize(episode_metrics(rollout, self.cfg.env.goal_radius))
         if self.logger is not None:
             for k, v in metrics.items():
                 self.logger.log_scalar(f"eval/{k}", v, step=self.frames)
@@ -201,6 +217,8 @@ class Trainer:
         log("perf/frames_per_s", self._session_frames() / elapsed, step=self.frames)
         log("perf/grad_steps_per_s", (self.algo.critic_steps - steps0) / elapsed, step=self.frames)
         log("train/exploration_sigma", self.noise.sigma.item(), step=self.frames)
+        for k, v in self.timings.split().items():
+            log(f"perf/share_{k}", v, step=self.frames)
         return latest
 
     def _session_frames(self) -> int:
@@ -230,10 +248,11 @@ class Trainer:
             "sampler": self.buffer.sampler.state_dict() if self.cfg.algo.prioritized and self.cfg.save_buffer else None,
         }
         path = self.run_dir / CHECKPOINT
-        if self.cfg.save_buffer:
-            self.buffer.dumps(path.parent / "buffer")
-        atomic_save(state, path)
-        atomic_save(self.policy_state(), self.run_dir / POLICY)
+        with self.timings("checkpoint"):
+            if self.cfg.save_buffer:
+                self.buffer.dumps(path.parent / "buffer")
+            atomic_save(state, path)
+            atomic_save(self.policy_state(), self.run_dir / POLICY)
         return path
 
     def policy_state(self) -> dict:

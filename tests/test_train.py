@@ -58,6 +58,12 @@ def test_tiny_run_logs_checkpoints_and_evaluates(tmp_path, algo):
                 "perf/grad_steps_per_s", "perf/episodes"):
         assert tag in tags, tag
     assert ("algo/priority_mean" in tags) == (algo == "per_matd3")
+    # where the wall time went: every section of the loop timed, the shares logged
+    split = trainer.timings.split()
+    assert {"env", "policy", "buffer_extend", "buffer_sample", "update", "evaluation", "checkpoint"} <= set(split)
+    assert ("priority" in split) == (algo == "per_matd3")
+    assert all(v > 0 for v in split.values()) and sum(split.values()) == pytest.approx(1.0)
+    assert "perf/share_update" in tags and "perf/share_env" in tags
     assert [s for s, _ in tags["eval/success"]] == [0, 1600, 2400]  # untrained, every eval_interval, the end
     assert (tmp_path / CHECKPOINT).is_file() and (tmp_path / POLICY).is_file()
     assert not list((tmp_path / "checkpoints").glob("*.tmp"))

@@ -74,7 +74,7 @@ class Algorithm:
 
         if self.critic_steps % self.cfg.policy_delay == 0:
             # actor loss without importance weights: eq. 21-22 weight the critic losses only
-            actor_loss = self._actor_loss(batch.exclude(WEIGHT_KEY, PRIORITY_KEY))[0].mean()
+            actor_loss = self._actor_loss(batch)[0]
             self.actor_optim.zero_grad(set_to_none=True)
             actor_loss.backward()
             out["grad_norm_actor"] = _check_finite(actor_loss, self.actor_params, "actor")
@@ -88,7 +88,31 @@ class Algorithm:
         return self.loss.value_loss(batch)
 
     def _actor_loss(self, batch: TensorDictBase):
-        return self.loss.actor_loss(batch)
+        """``-mean_i Q_i(o, a_1..mu_i(o_i)..a_N) + action_reg * mean(u^2)``, u the actors' pre-tanh outputs.
+
+        Written here rather than taken from ``TD3Loss.actor_loss`` / ``DDPGLoss.loss_actor`` for two
+        reasons: TD3 climbs the first critic only, and TorchRL evaluates every twin critic and keeps
+        the first (half the actor step's critic work thrown away); and the pre-tanh penalty of the
+        MADDPG reference implementation, which keeps the actors out of tanh saturation, where the
+        policy gradient vanishes and an action stays pinned at +-1. Parameters and their detached
+        critic copies are the loss's own.
+        """
+        loss = self.loss
+        obs = batch.get(("agents", "observation"))
+        mlp = loss.actor_network.module[0]  # PerRobotMLP; module[1] is the tanh
+        with loss.actor_network_params.to_module(loss.actor_network, preserve_module_state=False):
+            pre = mlp(obs)
+        critic_module, critic_params = self._actor_critic()
+        with critic_params.to_module(critic_module, preserve_module_state=False):
+            q = critic_module.module(obs, torch.tanh(pre))  # [B, N, 1]; gradient only through a_i into Q_i
+        actor_loss = -q.mean()
+        if self.cfg.action_reg > 0:
+            actor_loss = actor_loss + self.cfg.action_reg * pre.pow(2).mean()
+        return actor_loss, {"q_actor": q.detach()}
+
+    def _actor_critic(self):
+        """The critic module and the detached parameters the actor climbs."""
+        raise NotImplementedError
 
     # ------------------------------------------------------------------ checkpoints
     def state_dict(self) -> dict:

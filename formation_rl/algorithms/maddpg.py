@@ -19,7 +19,7 @@ class MADDPG(Algorithm):
         super().__init__(cfg)
 
     def _critic_loss(self, batch):
-        return self.loss.loss_value(batch)  # DDPGLoss's names for TD3Loss's value_loss / actor_loss
+        return self.loss.loss_value(batch)  # DDPGLoss's name for TD3Loss's value_loss
 
-    def _actor_loss(self, batch):
-        return self.loss.loss_actor(batch)
+    def _actor_critic(self):
+        return self.loss.value_network, self.loss._cached_detached_value_params

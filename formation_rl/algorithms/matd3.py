@@ -32,3 +32,6 @@ class MATD3(Algorithm):
             use_prioritized_weights=False,
         )
         super().__init__(cfg)
+
+    def _actor_critic(self):
+        return self.loss.qvalue_network, self.loss._cached_detach_qvalue_network_params[0]  # Q1 (TD3)

@@ -34,7 +34,8 @@ class PerRobotMLP(nn.Module):
             bound = 1.0 / math.sqrt(fan_in)  # nn.Linear's default initialisation, per robot
             self.weights.append(nn.Parameter(torch.empty(num_robots, fan_in, fan_out).uniform_(-bound, bound)))
             self.biases.append(nn.Parameter(torch.empty(num_robots, 1, fan_out).uniform_(-bound, bound)))
-        self.activation = ACTIVATIONS[activation]()
+        # in place where the activation allows it: its input is always a fresh GEMM output
+        self.activation = ACTIVATIONS[activation](**({} if activation == "tanh" else {"inplace": True}))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
@@ -55,7 +56,7 @@ class CentralizedCritic(nn.Module):
 
     Critic i sees every observation and action; gradients reach the actions only through a_i
     (the others enter detached), so ``-sum_i Q_i`` trains actor i on its own critic, as in MADDPG.
-    The first layer, over the joint input shared by all critics, runs as two GEMMs instead of N.
+    The first layer, over the joint input shared by all critics, runs as one GEMM instead of N.
     """
 
     def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
@@ -66,19 +67,20 @@ class CentralizedCritic(nn.Module):
 
     def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = observation.shape[:-2], observation.shape[-2:]
-        obs = observation.reshape(-1, n * d)  # [B, N*D], the same joint input for every critic
         act = action.reshape(-1, n, 2)
         dead = act.detach()
-        # first layer of all N critics as two GEMMs over the shared joint input (weights [N, N*D + 2N, H])
-        w1 = self.mlp.weights[0]
+        # first layer of all N critics as one GEMM over the shared joint input, bias fused:
+        # [B, N*D + 2N] @ [N*D + 2N, N*H] (weights [N, N*D + 2N, H] laid side by side)
+        w1, b1 = self.mlp.weights[0], self.mlp.biases[0]
         h_dim = w1.shape[-1]
-        w_obs = w1[:, : n * d].permute(1, 0, 2).reshape(n * d, n * h_dim)
-        w_act = w1[:, n * d :].permute(1, 0, 2).reshape(2 * n, n * h_dim)
-        h = (obs @ w_obs + dead.reshape(-1, 2 * n) @ w_act).view(-1, n, h_dim).transpose(0, 1)  # [N, B, H]
-        # a_i's gradient path into critic i alone: adds zero to the values, (a_i - sg(a_i)) W_i^(i)
-        ar = torch.arange(n, device=w1.device)
-        w_own = w1[:, n * d :].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
-        h = h + torch.bmm((act - dead).transpose(0, 1), w_own) + self.mlp.biases[0]
+        joint = torch.cat([observation.reshape(-1, n * d), dead.reshape(-1, 2 * n)], -1)
+        h = torch.addmm(b1.reshape(n * h_dim), joint, w1.permute(1, 0, 2).reshape(-1, n * h_dim))
+        h = h.view(-1, n, h_dim).transpose(0, 1)  # [N, B, H]
+        if action.requires_grad:
+            # a_i's gradient path into critic i alone: adds zero to the values, (a_i - sg(a_i)) W_i^(i)
+            ar = torch.arange(n, device=w1.device)
+            w_own = w1[:, n * d :].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
+            h = torch.baddbmm(h, (act - dead).transpose(0, 1), w_own)
         h = self.mlp.layers_from(self.mlp.activation(h), 1)  # [N, B, 1]
         return h.transpose(0, 1).reshape(*lead, n, 1)
 

@@ -1,0 +1,288 @@
+"""Training throughput: the gradient step against the machine's matmul rate, end to end at the paper's ratio.
+
+    python benchmarks/train_throughput.py [--json benchmarks/train_throughput.json] [--quick]
+    make bench
+
+Everything is measured in one process, so the ratios hold even where this machine's absolute
+speed drifts from run to run:
+
+1. the fp32 matmul rate (GFLOP/s, the best of 1024^2 and 2048^2 square products): the reference;
+2. per algorithm at the SPEC defaults (N=5, M=4, batch 1024): milliseconds per gradient step
+   (replay sampling, critic step, actor step every ``policy_delay``, soft update, priority
+   write-back), the step's GEMM FLOPs counted from the layer sizes (:func:`step_flops`),
+   achieved GFLOP/s and its ratio to the matmul rate;
+3. per algorithm, a real :class:`~formation_rl.trainer.Trainer` run at the paper's update ratio
+   (one gradient step per 100 frames, 64 env copies): frames/s and the split of its wall time
+   into env stepping, policy inference, buffer extend/sample, priority update, the update
+   (losses, backward, optimisers, soft update), metrics and logging (evaluation excluded, reported
+   apart); and the projected wall time of the paper's 9M-frame budget;
+4. scaling in N (robots: 3, 5, 9, 17) and in B (env copies: 1, 64, 1024, 4096), PER-MATD3.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import platform
+import statistics
+import sys
+import tempfile
+import time
+from dataclasses import replace
+
+import torch
+from tensordict import TensorDict
+
+from formation_rl.algorithms import make_algorithm
+from formation_rl.config import TrainConfig
+from formation_rl.models import make_actor, make_critic
+from formation_rl.replay import make_replay_buffer
+from formation_rl.trainer import Trainer
+
+ALGOS = {
+    "maddpg": dict(name="maddpg", num_critics=1, policy_noise=0.0, noise_clip=0.0, policy_delay=1, prioritized=False),
+    "matd3": dict(name="matd3", prioritized=False),
+    "per_matd3": dict(name="per_matd3"),
+}
+PAPER_FRAMES, PAPER_RATIO = 9_000_000, 100
+
+
+# ---------------------------------------------------------------------------------------- FLOPs
+def step_flops(n: int, obs_dim: int, hidden: list[int], batch: int, critics: int, delay: int) -> float:
+    """GEMM FLOPs of one gradient step (2 per multiply-add; elementwise work not counted).
+
+    Critic step: target actors forward, target critics forward, critics forward, and the critics'
+    backward (weight gradients of every layer, input gradients of every layer but the first).
+    Actor step, every ``delay`` critic steps: actors forward, critic 1 forward, its backward to
+    the actions (input gradients), the actors' backward (weights; inputs above the first layer).
+    """
+    critic_in = n * (obs_dim + 2)
+
+    def macs(sizes: list[int]) -> tuple[int, int]:  # (all layers, layers above the first)
+        pairs = list(zip(sizes[:-1], sizes[1:], strict=True))
+        return sum(a * b for a, b in pairs), sum(a * b for a, b in pairs[1:])
+
+    actor, actor_upper = macs([obs_dim, *hidden, 2])
+    critic, critic_upper = macs([critic_in, *hidden, 1])
+    per_sample_critic_step = n * (actor + critics * critic * 3 + critics * critic_upper)
+    per_sample_actor_step = n * (actor + critic + critic_upper + actor + actor_upper)
+    return 2.0 * batch * (per_sample_critic_step + per_sample_actor_step / delay)
+
+
+def joint_layer_share(n: int, obs_dim: int, h1: int, critics: int, delay: int) -> float:
+    """Share of a step's FLOPs in the critics' first layer, the one over the joint input of all robots.
+
+    Its width is N(D+2) with D = 4 + 2(N-1) + 3M + 1, and there are N critics: O(N^3) per sample,
+    the pairwise term of centralized training; every other layer costs O(N) per sample.
+    """
+    first = n * (obs_dim + 2) * h1 * n  # MACs per sample, N critics
+    per_sample = critics * first * 3 + first / delay  # 3 passes in the critic step (target, forward, dW)
+    return 2.0 * per_sample / step_flops(n, obs_dim, [h1, 128], 1, critics, delay)
+
+
+# ---------------------------------------------------------------------------------------- timing
+def matmul_rate(repeats: int = 10) -> float:
+    """GFLOP/s of a plain fp32 square matmul, the best of sizes 1024 and 2048 (median of ``repeats``)."""
+    best = 0.0
+    for size in (1024, 2048):
+        a, b = torch.randn(size, size), torch.randn(size, size)
+        for _ in range(3):
+            a @ b
+        times = []
+        for _ in range(repeats):
+            t = time.perf_counter()
+            a @ b
+            times.append(time.perf_counter() - t)
+        best = max(best, 2 * size**3 / statistics.median(times) / 1e9)
+    return best
+
+
+def make_config(algo: str, **top) -> TrainConfig:
+    cfg = TrainConfig()
+    cfg.algo = replace(cfg.algo, **ALGOS[algo])
+    for k, v in top.items():
+        if k == "num_robots":
+            # 17 robots do not fit the default 1 m start square at the SPEC's spacing: a 1.6 m one
+            cfg.env = replace(cfg.env, num_robots=v, start_high=-2.2 if v > 9 else cfg.env.start_high)
+        else:
+            setattr(cfg, k, v)
+    return cfg
+
+
+def grad_step(algo_name: str, n: int = 5, steps: int = 30) -> dict:
+    """Median milliseconds per gradient step on a filled buffer of random transitions, and its parts."""
+    cfg = make_config(algo_name, num_robots=n)
+    a, d = cfg.algo, cfg.env.obs_dim
+    torch.manual_seed(0)
+    algo = make_algorithm(make_actor(n, d, cfg.model.hidden), make_critic(n, d, cfg.model.hidden), replace(a))
+    buffer = make_replay_buffer(replace(a, buffer_size=50_000))
+    buffer.extend(random_transitions(50_000, n, d))
+    parts: dict[str, list[float]] = {"total": [], "sample": [], "update": [], "priority": []}
+    for i in range(steps + 5):
+        t0 = time.perf_counter()
+        batch = buffer.sample()
+        t1 = time.perf_counter()
+        algo.update(batch)
+        t2 = time.perf_counter()
+        if a.prioritized:
+            buffer.update_tensordict_priority(batch)
+        t3 = time.perf_counter()
+        if i >= 5:  # warm-up steps excluded
+            for k, v in (("total", t3 - t0), ("sample", t1 - t0), ("update", t2 - t1), ("priority", t3 - t2)):
+                parts[k].append(v)
+    flops = step_flops(n, d, list(cfg.model.hidden), a.batch_size, a.num_critics, a.policy_delay)
+    ms = {k: 1e3 * statistics.median(v) for k, v in parts.items()}
+    return {"ms": ms["total"], "parts_ms": ms, "gflop": flops / 1e9, "gflops": flops / ms["total"] / 1e6}
+
+
+def random_transitions(size: int, n: int, d: int) -> TensorDict:
+    done = torch.zeros(size, n, 1, dtype=torch.bool)
+    return TensorDict({
+        ("agents", "observation"): torch.randn(size, n, d),
+        ("agents", "action"): torch.rand(size, n, 2) * 2 - 1,
+        ("next", "agents", "observation"): torch.randn(size, n, d),
+        ("next", "agents", "reward"): torch.randn(size, n, 1),
+        ("next", "agents", "done"): done,
+        ("next", "agents", "terminated"): done.clone(),
+    }, [size])
+
+
+def end_to_end(algo_name: str, frames: int, n: int = 5, num_envs: int = 64, steps_per_batch: int = 25) -> dict:
+    """A real training run at one gradient step per 100 frames: frames/s and where the time went."""
+    cfg = make_config(algo_name, num_robots=n, num_envs=num_envs, steps_per_batch=steps_per_batch,
+                      total_frames=frames, eval_interval=10**12, checkpoint_interval=10**12, eval_episodes=10,
+                      progress=False)
+    cfg.algo = replace(cfg.algo, update_every=PAPER_RATIO, warmup_frames=cfg.algo.batch_size,
+                       buffer_size=max(frames, cfg.algo.batch_size))
+    with tempfile.TemporaryDirectory() as run_dir:
+        trainer = Trainer(cfg, run_dir)
+        start = time.perf_counter()
+        trainer.train()
+        wall = time.perf_counter() - start
+    sec = dict(trainer.timings.seconds)
+    # one-off costs, set aside: the frame-0 and final evaluations, the checkpoint, building the collector
+    aside = sec.pop("evaluation", 0.0) + sec.pop("checkpoint", 0.0) + sec.pop("setup", 0.0)
+    loop = wall - aside
+    split = {k: v / loop for k, v in sec.items()}
+    split["other"] = max(0.0, 1 - sum(split.values()))
+    return {"frames": trainer.frames, "grad_steps": trainer.algo.critic_steps, "seconds": loop,
+            "fps": trainer.frames / loop, "split": split}
+
+
+def eval_seconds(episodes: int = 1000) -> float:
+    """Wall time of one evaluation of ``episodes`` held-out episodes (the paper budget's cadence)."""
+    cfg = make_config("per_matd3", eval_episodes=episodes, progress=False)
+    with tempfile.TemporaryDirectory() as run_dir:
+        trainer = Trainer(cfg, run_dir)
+        trainer.evaluate()
+        t = time.perf_counter()
+        trainer.evaluate()
+        return time.perf_counter() - t
+
+
+# ---------------------------------------------------------------------------------------- report
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", default=None, help="also write the results to this JSON file")
+    parser.add_argument("--quick", action="store_true", help="fewer steps and frames (a smoke run, noisier)")
+    parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
+    args = parser.parse_args()
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    logging.getLogger("torchrl").setLevel(logging.WARNING)  # one INFO line per replay buffer otherwise
+    steps, scale = (8, 0.25) if args.quick else (30, 1.0)
+    out: dict = {"machine": {"cpu": _cpu(), "cores": os.cpu_count(), "threads": torch.get_num_threads(),
+                             "torch": torch.__version__, "python": platform.python_version()}}
+    say = print
+    rate = matmul_rate()
+    out["matmul_gflops"] = rate
+    say(f"# Training throughput — {out['machine']['cpu']}, {out['machine']['cores']} cores, "
+        f"torch {torch.__version__}, {torch.get_num_threads()} threads\n")
+    say(f"fp32 matmul rate (reference, same process): {rate:.1f} GFLOP/s\n")
+
+    say("## Gradient step (N=5, M=4, batch 1024)\n")
+    say("| algorithm | ms / step | sample ms | update ms | priority ms | GFLOP / step | GFLOP/s | / matmul |")
+    say("|---|---:|---:|---:|---:|---:|---:|---:|")
+    out["grad_step"] = {}
+    for name in ALGOS:
+        r = grad_step(name, steps=steps)
+        out["grad_step"][name] = r
+        p = r["parts_ms"]
+        say(f"| {name} | {r['ms']:.1f} | {p['sample']:.1f} | {p['update']:.1f} | {p['priority']:.1f} | "
+            f"{r['gflop']:.2f} | {r['gflops']:.1f} | {100 * r['gflops'] / rate:.0f}% |")
+        sys.stdout.flush()
+
+    say("\n## End to end at the paper's ratio (1 gradient step / 100 frames, N=5, 64 env copies)\n")
+    frames = int(100_000 * scale)
+    cols = ("env", "policy", "buffer_extend", "buffer_sample", "update", "priority", "metrics", "logging", "other")
+    say("| algorithm | frames/s | " + " | ".join(cols) + " | not the update |")
+    say("|---|---:|" + "---:|" * (len(cols) + 1))
+    out["end_to_end"] = {}
+    for name in ALGOS:
+        r = end_to_end(name, frames)
+        out["end_to_end"][name] = r
+        s = r["split"]
+        say(f"| {name} | {r['fps']:,.0f} | " + " | ".join(f"{100 * s.get(c, 0):.1f}%" for c in cols)
+            + f" | {100 * (1 - s['update']):.1f}% |")
+        sys.stdout.flush()
+
+    evals = PAPER_FRAMES // 500_000  # conf/budget/paper.yaml: every 500k frames, 1,000 episodes
+    ev = eval_seconds(1000)
+    per = out["end_to_end"]["per_matd3"]
+    projected = PAPER_FRAMES / per["fps"] + (evals + 1) * ev
+    out["paper_projection"] = {"frames": PAPER_FRAMES, "grad_steps": PAPER_FRAMES // PAPER_RATIO,
+                               "fps": per["fps"], "eval_seconds": ev, "evaluations": evals + 1,
+                               "minutes": projected / 60}
+    say(f"\nProjected paper budget, PER-MATD3 (9M frames, 90,000 gradient steps, {evals + 1} evaluations of "
+        f"1,000 episodes at {ev:.1f} s): **{projected / 60:.0f} min** "
+        f"(= 9M / {per['fps']:,.0f} frames/s + evaluations; the replay buffer grows to 1M, sampling cost "
+        "measured at 50k-100k)\n")
+
+    say("## Scaling in robots N (PER-MATD3, M=4, batch 1024, 64 env copies)\n")
+    say("| N | obs width | ms / step | GFLOP / step | critics' joint-input layer | GFLOP/s | / matmul | "
+        "frames/s (paper ratio) | step ms / N, vs N=5 |")
+    say("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    out["scaling_n"] = {}
+    for n in (3, 5, 9, 17):
+        g = grad_step("per_matd3", n=n, steps=max(5, steps // 2))
+        e = end_to_end("per_matd3", int(12_000 * scale), n=n)
+        out["scaling_n"][n] = {"grad_step": g, "end_to_end": e, "obs_dim": 4 + 2 * (n - 1) + 13}
+    base = out["scaling_n"][5]["grad_step"]["ms"] / 5
+    for n, r in out["scaling_n"].items():
+        g, e = r["grad_step"], r["end_to_end"]
+        joint = joint_layer_share(n, r["obs_dim"], 128, 2, 2)
+        r["joint_layer_share"] = joint
+        say(f"| {n} | {r['obs_dim']} | {g['ms']:.1f} | {g['gflop']:.2f} | {100 * joint:.0f}% | {g['gflops']:.1f} | "
+            f"{100 * g['gflops'] / rate:.0f}% | {e['fps']:,.0f} | {g['ms'] / n / base:.2f}x |")
+
+    say("\n## Scaling in env copies B (PER-MATD3, N=5, paper ratio)\n")
+    say("| B | frames / collector batch | frames/s | env | policy | update |")
+    say("|---:|---:|---:|---:|---:|---:|")
+    out["scaling_b"] = {}
+    for b, spb in ((1, 200), (64, 25), (1024, 2), (4096, 1)):
+        frames_b = max(int(30_000 * scale), 2 * b * spb) if b > 1 else int(10_000 * scale)
+        e = end_to_end("per_matd3", frames_b, num_envs=b, steps_per_batch=spb)
+        out["scaling_b"][b] = e
+        s = e["split"]
+        say(f"| {b} | {b * spb:,} | {e['fps']:,.0f} | {100 * s.get('env', 0):.1f}% | "
+            f"{100 * s.get('policy', 0):.1f}% | {100 * s['update']:.1f}% |")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=2, default=float)
+        say(f"\nJSON: {args.json}")
+
+
+def _cpu() -> str:
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+if __name__ == "__main__":
+    main()
