@@ -1,6 +1,6 @@
 """Training throughput: the gradient step against the machine's matmul rate, end to end at the paper's ratio.
 
-    python benchmarks/train_throughput.py [--json benchmarks/train_throughput.json] [--quick]
+    python benchmarks/train_throughput.py [--json benchmarks/train_throughput.json] [--quick] [--profile]
     make bench
 
 Everything is measured in one process, so the ratios hold even where this machine's absolute
@@ -171,6 +171,35 @@ def end_to_end(algo_name: str, frames: int, n: int = 5, num_envs: int = 64, step
             "fps": trainer.frames / loop, "split": split}
 
 
+def profile_step(steps: int = 10) -> None:
+    """Where a PER-MATD3 gradient step's time goes, operator by operator (self CPU time)."""
+    from torch.profiler import ProfilerActivity, profile
+
+    cfg = make_config("per_matd3")
+    a, n, d = cfg.algo, cfg.env.num_robots, cfg.env.obs_dim
+    algo = make_algorithm(make_actor(n, d), make_critic(n, d), a)
+    buffer = make_replay_buffer(replace(a, buffer_size=50_000))
+    buffer.extend(random_transitions(50_000, n, d))
+
+    def step():
+        batch = buffer.sample()
+        algo.update(batch)
+        buffer.update_tensordict_priority(batch)
+
+    for _ in range(5):
+        step()
+    start = time.perf_counter()
+    with profile(activities=[ProfilerActivity.CPU]) as prof:
+        for _ in range(steps):
+            step()
+    wall = (time.perf_counter() - start) / steps * 1e3
+    table = prof.key_averages()
+    ops = sum(e.self_cpu_time_total for e in table) / steps / 1e3
+    print(f"{steps} PER-MATD3 steps, {wall:.1f} ms each under the profiler, {ops:.1f} ms of it inside operators "
+          f"(the rest: Python, TensorDict, dispatch)\n")
+    print(table.table(sort_by="self_cpu_time_total", row_limit=14))
+
+
 def eval_seconds(episodes: int = 1000) -> float:
     """Wall time of one evaluation of ``episodes`` held-out episodes (the paper budget's cadence)."""
     cfg = make_config("per_matd3", eval_episodes=episodes, progress=False)
@@ -188,10 +217,15 @@ def main() -> None:
     parser.add_argument("--json", default=None, help="also write the results to this JSON file")
     parser.add_argument("--quick", action="store_true", help="fewer steps and frames (a smoke run, noisier)")
     parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
+    parser.add_argument("--profile", action="store_true",
+                        help="only print torch.profiler's top operators of 10 PER-MATD3 gradient steps")
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
     logging.getLogger("torchrl").setLevel(logging.WARNING)  # one INFO line per replay buffer otherwise
+    if args.profile:
+        profile_step()
+        return
     steps, scale = (8, 0.25) if args.quick else (30, 1.0)
     out: dict = {"machine": {"cpu": _cpu(), "cores": os.cpu_count(), "threads": torch.get_num_threads(),
                              "torch": torch.__version__, "python": platform.python_version()}}

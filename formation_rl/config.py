@@ -40,6 +40,8 @@ class AlgoConfig:
     batch_size: int = 1024  # (paper)
     buffer_size: int = 1_000_000  # (paper)
     update_every: int = 100  # collected frames per gradient step (paper: update every 100 steps)
+    n_steps: int = 1  # TD target over n steps (TorchRL's MultiStep on each collector batch); 1: the paper's
+    #                   one-step target (eq. 7); episodes and collector batches cut it short
     action_reg: float = 1e-3  # actor loss += action_reg * mean(pre-tanh^2), against tanh saturation (choice:
     #                           the MADDPG reference implementation's value; 0 turns it off)
     warmup_frames: int = 10_000  # uniform random actions before the first update (choice)
@@ -94,6 +96,7 @@ def validate(cfg: TrainConfig) -> None:
     check(a.batch_size >= 1, "algo.batch_size", a.batch_size, "an integer >= 1")
     check(a.buffer_size >= a.batch_size, "algo.buffer_size", a.buffer_size, f">= algo.batch_size ({a.batch_size})")
     check(a.update_every >= 1, "algo.update_every", a.update_every, "an integer >= 1")
+    check(a.n_steps >= 1, "algo.n_steps", a.n_steps, "an integer >= 1")
     check(a.action_reg >= 0, "algo.action_reg", a.action_reg, ">= 0")
     check(a.warmup_frames >= 0, "algo.warmup_frames", a.warmup_frames, ">= 0")
     check(a.exploration_sigma >= a.exploration_sigma_end >= 0, "algo.exploration_sigma", a.exploration_sigma,

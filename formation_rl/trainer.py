@@ -17,6 +17,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from tensordict.nn import TensorDictSequential
 from torchrl.collectors import Collector
+from torchrl.data.postprocs import MultiStep
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.modules import AdditiveGaussianModule
 from torchrl.record.loggers.tensorboard import TensorboardLogger
@@ -90,6 +91,10 @@ class Trainer:
         self.timings = Timings()  # wall time per section of the loop (train.log, perf/share_*)
         self.timings.watch_policy(self.explore)
         self.buffer = make_replay_buffer(a, dev)
+        self.multistep = None
+        if a.n_steps > 1:  # n-step TD targets: rewards summed and "next" shifted within each collector batch
+            self.multistep = MultiStep(a.gamma, a.n_steps).to(dev)
+            self.multistep.reward_keys = (("agents", "reward"),)
         self.tracker = EpisodeTracker(cfg.num_envs, cfg.env.goal_radius, dev)
         self.frames = self.episodes = 0
         self._resumed_frames = 0  # frames already done when this process started (for frames/s)
@@ -135,7 +140,7 @@ class Trainer:
                     finished = self.tracker.update(data)
                     self.episodes += finished["length"].numel()
                 with timings("buffer_extend"):
-                    self.buffer.extend(to_transitions(data))
+                    self.buffer.extend(to_transitions(self.multistep(data) if self.multistep else data))
                 # one gradient step (every robot at once) per update_every collected frames
                 credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
                 losses = []

@@ -157,3 +157,15 @@ def test_default_budget_learning_check(tmp_path):
     print("untrained:", untrained, "\nfinal:", final)
     assert final["episode_reward"] > untrained["episode_reward"]
     assert final["success"] > untrained["success"]
+
+
+def test_n_step_transitions_carry_the_steps_they_look_ahead(tmp_path):
+    cfg = tiny("matd3", frames=480)
+    cfg.algo.n_steps, cfg.algo.gamma = 3, 0.9
+    trainer = Trainer(cfg, tmp_path)
+    trainer.train()
+    stored = trainer.buffer[:]
+    steps = stored["steps_to_next_obs"]
+    assert stored.shape == (480,) and steps.shape == (480, 3, 1) and set(steps.unique().tolist()) == {1, 2, 3}
+    # each collector batch is [8 copies, 20 steps]: the last two steps of a batch look ahead fewer steps
+    assert (steps.view(-1, 8, 20, 3)[:, :, :18] == 3).all()

@@ -129,3 +129,27 @@ def test_maddpg_single_critic_updates_targets_every_step():
     online = algo.loss.value_network_params.detach()
     for key, value in (t0 * 0.5 + online * 0.5).items(True, True):
         torch.testing.assert_close(algo.loss.target_value_network_params[key], value, atol=1e-6, rtol=0)
+
+
+def test_n_step_target_discounts_by_the_steps_taken():
+    algo = matd3(policy_noise=0.0, noise_clip=0.0, gamma=0.9)
+    batch = make_batch(8)
+    steps = torch.tensor([1, 2, 3, 3, 1, 2, 3, 1]).view(8, 1, 1).expand(8, N, 1)
+    batch.set("steps_to_next_obs", steps)  # as to_transitions keeps it after TorchRL's MultiStep
+    _, meta = algo.loss.value_loss(batch.clone())
+    nxt = batch["next"].clone()
+    with algo.loss.target_actor_network_params.to_module(algo.loss.actor_network):
+        algo.loss.actor_network(nxt)
+    q_next = q_values(algo, algo.loss.target_qvalue_network_params, nxt).min(0).values
+    expected = batch["next", "agents", "reward"][..., 0] + 0.9 ** steps[..., 0].float() * q_next
+    torch.testing.assert_close(meta["target_value"], expected, atol=1e-5, rtol=1e-5)
+
+
+def test_torchrl_actor_loss_reaches_the_actors_through_our_critic():
+    # TorchRL's TD3Loss.actor_loss runs the twin critics under vmap; the critic must still pass
+    # gradient to a_i there (a user's own loss may take that path)
+    algo = matd3()
+    loss, _ = algo.loss.actor_loss(make_batch(8))
+    loss.mean().backward()
+    grads = [p.grad for p in algo.loss.actor_network_params.values(True, True)]
+    assert all(g is not None and g.abs().sum() > 0 for g in grads)
