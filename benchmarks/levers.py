@@ -13,6 +13,7 @@ import logging
 import statistics
 import sys
 from pathlib import Path
+from unittest import mock
 
 import torch
 from torch import nn
@@ -45,7 +46,7 @@ def _inplace_relu(inplace=False):
 
 
 LEVERS = {
-    # name: (what it replaces, patch target, attribute, alternative)
+    # label: (where it is patched, the attribute or key, the alternative)
     "TorchRL's actor_loss (both twins evaluated) instead of Q1 only": (base.Algorithm, "_actor_loss",
                                                                      _torchrl_actor_loss),
     "twin critics in a Python loop (deactivate_vmap) instead of vmap": (matd3, "TD3Loss", _LoopTD3Loss),
@@ -55,21 +56,9 @@ LEVERS = {
 
 
 def _patched(target, name, value):
-    class Patch:
-        def __enter__(self):
-            self.old = target[name] if isinstance(target, dict) else getattr(target, name)
-            if isinstance(target, dict):
-                target[name] = value
-            else:
-                setattr(target, name, value)
-
-        def __exit__(self, *_):
-            if isinstance(target, dict):
-                target[name] = self.old
-            else:
-                setattr(target, name, self.old)
-
-    return Patch()
+    if isinstance(target, dict):
+        return mock.patch.dict(target, {name: value})
+    return mock.patch.object(target, name, value)
 
 
 def main() -> None:
