@@ -31,8 +31,10 @@ import sys
 import tempfile
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import torch
+from omegaconf import OmegaConf
 from tensordict import TensorDict
 
 from formation_rl.algorithms import make_algorithm
@@ -41,11 +43,8 @@ from formation_rl.models import make_actor, make_critic
 from formation_rl.replay import make_replay_buffer
 from formation_rl.trainer import Trainer
 
-ALGOS = {
-    "maddpg": dict(name="maddpg", num_critics=1, policy_noise=0.0, noise_clip=0.0, policy_delay=1, prioritized=False),
-    "matd3": dict(name="matd3", prioritized=False),
-    "per_matd3": dict(name="per_matd3"),
-}
+ALGOS = ("maddpg", "matd3", "per_matd3")
+CONF = Path(__file__).resolve().parents[1] / "conf"
 PAPER_FRAMES, PAPER_RATIO = 9_000_000, 100
 
 
@@ -101,7 +100,7 @@ def matmul_rate(repeats: int = 10) -> float:
 
 def make_config(algo: str, **top) -> TrainConfig:
     cfg = TrainConfig()
-    cfg.algo = replace(cfg.algo, **ALGOS[algo])
+    cfg.algo = replace(cfg.algo, **OmegaConf.to_container(OmegaConf.load(CONF / "algo" / f"{algo}.yaml")))
     for k, v in top.items():
         if k == "num_robots":
             # 17 robots do not fit the default 1 m start square at the SPEC's spacing: a 1.6 m one

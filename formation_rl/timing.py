@@ -1,8 +1,8 @@
 """Where a training run's wall time goes: cumulative seconds per section of the loop.
 
 The trainer times each part of its loop (``with timings("update"): ...``) and the collection
-policy's forward passes through module hooks; ``split()`` gives the shares that ``train.log``,
-TensorBoard (``perf/share_*``) and ``benchmarks/train_throughput.py`` report.
+policy's forward passes through module hooks; ``split()`` gives the shares that the end of
+``make train``, TensorBoard (``perf/share_*``) and ``benchmarks/train_throughput.py`` report.
 """
 
 from __future__ import annotations

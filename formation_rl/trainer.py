@@ -140,7 +140,7 @@ class Trainer:
                     finished = self.tracker.update(data)
                     self.episodes += finished["length"].numel()
                 with timings("buffer_extend"):
-                    self.buffer.extend(to_transitions(self.multistep(data) if self.multistep else data))
+                    self.buffer.extend(to_transitions(data if self.multistep is None else self.multistep(data)))
                 # one gradient step (every robot at once) per update_every collected frames
                 credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
                 losses = []
