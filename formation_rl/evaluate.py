@@ -36,7 +36,7 @@ _T975 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 
 
 @dataclass
 class EvalConfig:
-    ckpt: str | None = None  # policy.pt, last.pt or a run directory (a scripted policy when used from Python)
+    ckpt: str | None = None  # policy.pt, last.pt, a run directory, or "apf" (the classical controller)
     episodes: int = 1000  # fresh held-out episodes (SPEC §6)
     num_envs: int = 1000  # copies stepped together (episodes run in rounds of this many)
     seed: int = EVAL_SEED
@@ -129,22 +129,29 @@ def _overridden_env(cfg: DictConfig, base: EnvConfig) -> EnvConfig:
 @hydra.main(config_path="../conf", config_name="evaluate", version_base=None)
 @one_line_errors
 def main(cfg: DictConfig) -> None:
-    from formation_rl.policy import load_policy, policy_path
+    from formation_rl.policy import CLASSICAL, classical_policy, is_classical, load_policy, policy_path
 
-    if not cfg.ckpt:
-        raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt or run directory (make eval CKPT=...)")
+    ckpt = cfg.ckpt
+    if not ckpt:
+        raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt, run directory or apf "
+                         "(make eval CKPT=...)")
     if cfg.episodes < 1 or cfg.num_envs < 1:
         field_, value = ("episodes", cfg.episodes) if cfg.episodes < 1 else ("num_envs", cfg.num_envs)
         raise ValueError(f"{field_} = {value} is invalid: must be an integer >= 1")
-    path = policy_path(cfg.ckpt)
-    policy = load_policy(path, cfg.device)
-    env_cfg = _overridden_env(cfg, policy.env_config)
-    policy.check_world(env_cfg)
+    if is_classical(ckpt):  # no checkpoint: the default world with the overrides, results into out or outputs/
+        path = Path(cfg.out or "outputs/eval/apf") / CLASSICAL
+        env_cfg = _overridden_env(cfg, EnvConfig())
+        policy = classical_policy(env_cfg, cfg.device)
+    else:
+        path = policy_path(ckpt)
+        policy = load_policy(path, cfg.device)
+        env_cfg = _overridden_env(cfg, policy.env_config)
+        policy.check_world(env_cfg)
     per_episode = evaluate_policy(policy.module, env_cfg, cfg.episodes, cfg.num_envs, cfg.seed, cfg.device)
     summary = summarize_ci(per_episode)
     out_dir = Path(cfg.out) if cfg.out else path.parent
-    meta = {"ckpt": str(path), "algo": policy.algo, "episodes": cfg.episodes, "seed": cfg.seed,
-            "env": dataclasses.asdict(env_cfg)}
+    meta = {"ckpt": ckpt if is_classical(ckpt) else str(path), "algo": policy.algo, "episodes": cfg.episodes,
+            "seed": cfg.seed, "env": dataclasses.asdict(env_cfg)}
     js, cs = write_results(summary, out_dir, meta)
     print(format_table(summary, f"{policy.algo} on {cfg.episodes} held-out episodes (seed {cfg.seed}):"))
     print(f"wrote {js} and {cs}")

@@ -50,6 +50,21 @@ class Policy:
         return action.numpy() if as_numpy else action
 
 
+CLASSICAL = "apf"  # the name that loads the non-learned reference controller (formation_rl.controllers)
+
+
+def is_classical(path) -> bool:
+    return str(path) == CLASSICAL
+
+
+def classical_policy(env_config: EnvConfig | None = None, device: str | torch.device = "cpu") -> Policy:
+    """The artificial-potential-field controller of :mod:`formation_rl.controllers` for ``env_config``."""
+    from formation_rl.controllers import apf_policy
+
+    cfg = env_config or EnvConfig()
+    return Policy(apf_policy(cfg).to(device), cfg, CLASSICAL)
+
+
 def policy_path(path: str | Path) -> Path:
     """``policy.pt`` itself, the one beside a ``last.pt``, or the one of a run directory."""
     p = Path(path)
@@ -63,7 +78,10 @@ def policy_path(path: str | Path) -> Path:
 
 
 def load_policy(path: str | Path, device: str | torch.device = "cpu") -> Policy:
-    """A policy from ``policy.pt``, a ``last.pt`` beside one, or a run directory."""
+    """A policy from ``policy.pt``, a ``last.pt`` beside one, or a run directory; ``"apf"``: the
+    classical controller on the default world (:func:`classical_policy` for another)."""
+    if is_classical(path):
+        return classical_policy(None, device)
     p = policy_path(path)
     state = load_checkpoint_file(p)
     if "actor" not in state:

@@ -23,7 +23,7 @@ from formation_rl.evaluate import EVAL_SEED
 
 @dataclass
 class RenderConfig:
-    ckpt: str | None = None  # policy.pt, last.pt or a run directory
+    ckpt: str | None = None  # policy.pt, last.pt, a run directory or "apf" (the classical controller)
     seed: int = EVAL_SEED  # the held-out scenario to show
     steps: list[int] = field(default_factory=lambda: [10, 35, 95, 120])  # formation snapshots (Figure 10)
     out: str | None = None
@@ -37,12 +37,13 @@ ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 @hydra.main(config_path="../conf", config_name="render", version_base=None)
 @one_line_errors
 def main(cfg: DictConfig) -> None:
-    from formation_rl.policy import load_policy, policy_path
+    from formation_rl.policy import CLASSICAL, is_classical, load_policy, policy_path
 
     if not cfg.ckpt:
-        raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt or run directory (make render CKPT=...)")
-    path = policy_path(cfg.ckpt)
-    policy = load_policy(path)
+        raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt, run directory or apf "
+                         "(make render CKPT=...)")
+    path = Path(cfg.out or "outputs/render/apf") / CLASSICAL if is_classical(cfg.ckpt) else policy_path(cfg.ckpt)
+    policy = load_policy(cfg.ckpt if is_classical(cfg.ckpt) else path)
     env_cfg = policy.env_config
     bad = [s for s in cfg.steps if not 0 <= s <= env_cfg.max_steps]
     if bad:
