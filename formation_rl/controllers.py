@@ -1,17 +1,20 @@
-"""A classical, non-learned reference controller: ``algo=apf`` (issue: what learning buys).
+"""A classical, non-learned reference controller, ``algo=apf``: the bar for what learning buys.
 
 Each robot acts on its own SPEC §3 observation only (the information a learned actor has, so the
 comparison is fair, decentralized execution included):
 
 - **leader**: flies towards the goal with a braking speed profile (``sqrt(2 a d)``, capped by a
-  cruise speed that is lower while it is over the obstacle area), and an artificial potential
-  field around every *sensed* obstacle: the velocity component into the obstacle is removed, a
-  repulsive term pushes outwards and a tangential term slides it round the side nearer the goal;
+  cruise speed, lower while it is over the obstacle area: at v_max a robot cannot swerve round an
+  obstacle it senses 0.2 m away), and an artificial potential field around every *sensed*
+  obstacle: the velocity component into the obstacle is removed, a tangential term slides it
+  round the side nearer its heading and a repulsive term pushes it out;
 - **followers**: proportional tracking of their slot in the active formation (the same V/chain
   switch as the hybrid reward): V slots around the leader, oriented along the direction from the
   followers' centroid to the leader (a follower does not observe the leader's heading); chain:
-  the point at ``s_chain`` from the predecessor on the line towards it; plus repulsion from robots
-  closer than ``robot_clearance`` and the same obstacle field as the leader.
+  the point at ``s_chain`` from the predecessor on the line towards it; the same speed cap over
+  the obstacle area; no approach to, and repulsion from, robots closer than ``robot_clearance``;
+  the same obstacle field as the leader. The leader observes no other robot, so it is the
+  followers who keep clear of it.
 
 The desired velocity becomes a force through a one-step velocity tracking law, clipped to the
 action box. All gains are constructor arguments, chosen by hand on the training scenarios (seed 0),
@@ -58,6 +61,9 @@ class APFController(nn.Module):
         self.area_switch = cfg.reward.variant == "hybrid"
         self.area_spacing = area.spacing
         self.register_buffer("area_slots", slots(area, n).float(), persistent=False)
+        # follower i sees the others in index order; this puts its own position back at index i
+        order = [list(range(i)) + [n - 1] + list(range(i, n - 1)) for i in range(1, n)]
+        self.register_buffer("order", torch.tensor(order), persistent=False)  # [N-1, N]
 
     # ------------------------------------------------------------------ observation layout (SPEC §3)
     def _split(self, obs: torch.Tensor):
@@ -87,7 +93,8 @@ class APFController(nn.Module):
         return self._avoid(v_des, rel, sensed, torch.ones_like(sensed), self.obstacle_push, self.slide, toward)
 
     def _speed_cap(self, p: torch.Tensor) -> torch.Tensor:
-        """Top speed at positions ``p`` [..., 2]: ``area_cruise`` where obstacles can be, else v_max."""
+        """Top speed at positions ``p`` [..., 2]: ``area_cruise`` over the obstacle area (widened by
+        ``area_margin``), v_max elsewhere."""
         cfg = self.cfg
         reach = self.area_margin
         (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
@@ -112,10 +119,8 @@ class APFController(nn.Module):
         own = p[..., 1:, :]
         idx = torch.arange(1, n, device=obs.device)
         # all positions as follower i sees them: insert its own position at index i
-        full = torch.cat([others, own[..., None, :]], dim=-2)  # [..., N-1, N, 2] (own last, reordered below)
-        order = torch.stack([torch.cat([torch.arange(0, i), torch.tensor([n - 1]), torch.arange(i, n - 1)])
-                             for i in range(1, n)]).to(obs.device)  # [N-1, N]
-        full = torch.gather(full, -2, order[..., None].expand(*full.shape[:-1], 2))
+        full = torch.cat([others, own[..., None, :]], dim=-2)  # [..., N-1, N, 2], own last
+        full = torch.gather(full, -2, self.order[..., None].expand(*full.shape[:-1], 2))  # index order
         leader = full[..., 0, :]  # [..., N-1, 2]
         centroid = full[..., 1:, :].mean(-2)
         axis, spread = _unit(leader - centroid)
