@@ -44,7 +44,9 @@ class AlgoConfig:
     #                   one-step target (eq. 7); episodes and collector batches cut it short
     action_reg: float = 1e-3  # actor loss += action_reg * mean(pre-tanh^2), against tanh saturation (choice:
     #                           the MADDPG reference implementation's value; 0 turns it off)
-    warmup_frames: int = 10_000  # uniform random actions before the first update (choice)
+    warmup_frames: int = 10_000  # frames collected before the first update (choice)
+    warmup_policy: str = "random"  # who acts in them: random (uniform actions) | apf (the classical controller
+    #                                with the exploration noise: demonstrations in the buffer) (choice)
     exploration_sigma: float = 0.3  # Gaussian exploration noise on the collection policy, start (choice)
     exploration_sigma_end: float = 0.05  # ... end (choice)
     exploration_anneal: float = 0.5  # fraction of total_frames over which sigma anneals (choice)
@@ -102,6 +104,7 @@ def validate(cfg: TrainConfig) -> None:
     check(a.n_steps >= 1, "algo.n_steps", a.n_steps, "an integer >= 1")
     check(a.action_reg >= 0, "algo.action_reg", a.action_reg, ">= 0")
     check(a.warmup_frames >= 0, "algo.warmup_frames", a.warmup_frames, ">= 0")
+    check(a.warmup_policy in ("random", "apf"), "algo.warmup_policy", a.warmup_policy, "random or apf")
     check(a.exploration_sigma >= a.exploration_sigma_end >= 0, "algo.exploration_sigma", a.exploration_sigma,
           f">= exploration_sigma_end ({a.exploration_sigma_end}) >= 0")
     check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")

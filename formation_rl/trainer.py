@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
-from tensordict.nn import TensorDictSequential
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.collectors import Collector
 from torchrl.data.postprocs import MultiStep
 from torchrl.envs.utils import ExplorationType, set_exploration_type
@@ -49,6 +50,18 @@ def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
     out.algo = dataclasses.replace(out.algo, **cfg.get("algo", {}))
     out.model = dataclasses.replace(out.model, **cfg.get("model", {}))
     return out
+
+
+class _Switch(TensorDictModuleBase):
+    """The collection policy: ``first`` while ``self.first`` is set, then ``then`` (same keys)."""
+
+    def __init__(self, first: TensorDictModuleBase, then: TensorDictModuleBase, active: bool):
+        super().__init__()
+        self.in_keys, self.out_keys = then.in_keys, then.out_keys
+        self.first_policy, self.then_policy, self.first = first, then, active
+
+    def forward(self, td: TensorDictBase) -> TensorDictBase:
+        return (self.first_policy if self.first else self.then_policy)(td)
 
 
 def atomic_save(obj, path: Path) -> None:
@@ -88,6 +101,11 @@ class Trainer:
             action_key=("agents", "action"), safe=True, device=dev,
         )
         self.explore = TensorDictSequential(self.actor, self.noise)
+        self.warmup = None  # algo.warmup_policy=apf: the classical controller (+ the same noise) collects warm-up
+        if a.warmup_policy == "apf":
+            from formation_rl.controllers import apf_policy
+
+            self.warmup = TensorDictSequential(apf_policy(cfg.env).to(dev), self.noise)
         self.timings = Timings()  # wall time per section of the loop (train.log, perf/share_*)
         self.timings.watch_policy(self.explore)
         self.buffer = make_replay_buffer(a, dev)
@@ -115,10 +133,12 @@ class Trainer:
         per_batch = cfg.num_envs * cfg.steps_per_batch
         learn_from = max(a.batch_size, a.warmup_frames)  # no update before the buffer holds this much
         batches = -(-max(remaining, 1) // per_batch)  # whole collector batches (the last one may overshoot)
-        random_batches = -(-max(0, a.warmup_frames - self.frames) // per_batch)
+        warmup_batches = -(-max(0, a.warmup_frames - self.frames) // per_batch)
+        policy = self.explore if self.warmup is None else _Switch(self.warmup, self.explore, warmup_batches > 0)
         collector = Collector(
-            self.env, self.explore, frames_per_batch=per_batch, total_frames=batches * per_batch,
-            init_random_frames=random_batches * per_batch, device=cfg.device, auto_register_policy_transforms=False,
+            self.env, policy, frames_per_batch=per_batch, total_frames=batches * per_batch,
+            init_random_frames=warmup_batches * per_batch if self.warmup is None else 0, device=cfg.device,
+            auto_register_policy_transforms=False,
         )
         self.timings.add("setup", time.perf_counter() - setup)
         bar = tqdm(total=cfg.total_frames, initial=self.frames, unit="frame", unit_scale=True,
@@ -135,6 +155,8 @@ class Trainer:
                 if self.frames >= cfg.total_frames:
                     break
                 self.frames += data.numel()
+                if isinstance(policy, _Switch):
+                    policy.first = self.frames < a.warmup_frames  # the controller's warm-up is over
                 with timings("metrics"):
                     _check_inputs(data, self.frames)
                     finished = self.tracker.update(data)

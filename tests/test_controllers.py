@@ -53,16 +53,12 @@ def test_apf_adapts_to_other_worlds():
     assert per["UDBLT"].median() <= 0.2
 
 
-def test_make_eval_apf_writes_metrics_and_training_apf_is_refused(tmp_path):
+def test_make_eval_apf_writes_metrics(tmp_path):
     run = subprocess.run([sys.executable, "-m", "formation_rl.evaluate", "ckpt=apf", "episodes=20", f"out={tmp_path}"],
                          cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     result = json.loads((tmp_path / "metrics.json").read_text())
     assert result["eval"]["algo"] == "apf" and 0 <= result["success"] <= 1
-    run = subprocess.run([sys.executable, "-m", "formation_rl.train", "algo=apf", f"hydra.run.dir={tmp_path}/t"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=300)
-    assert run.returncode != 0
-    assert run.stderr.strip().splitlines()[-1].startswith("error: algo.name = 'apf' is invalid for training")
 
 
 @pytest.mark.parametrize("variant", ["fixed"])

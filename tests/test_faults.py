@@ -105,7 +105,9 @@ def test_same_seed_same_run_different_seed_different_draws(tmp_path):
 
 
 BAD_INPUT = [  # (entry point, arguments, the one line it must print)
-    ("train", ["algo=ppo"], "algo = 'ppo' is invalid: must be one of maddpg, matd3, per_matd3"),
+    ("train", ["algo=ppo"], "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3, per_matd3"),
+    ("train", ["algo=apf"], "algo.name = 'apf' is invalid for training: apf is the classical controller"),
+    ("train", ["algo.warmup_policy=demo"], "algo.warmup_policy = 'demo' is invalid: must be random or apf"),
     ("train", ["formation=star"], "formation = 'star' is invalid: must be one of chain, v"),
     ("train", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
     ("train", ["budget=huge"], "budget = 'huge' is invalid: must be one of default, paper"),
@@ -123,7 +125,7 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["device=tpu"], "device = 'tpu' is invalid: must be cpu, cuda or cuda:<index>"),
     ("train", ["env.max_speed=0"], "env.max_speed = 0.0 is invalid: must be a finite number > 0"),
     ("train", ["resume=/no/such/run"], "resume = '/no/such/run' is invalid: no checkpoint at /no/such/run"),
-    ("formation_rl.train", ["-m", "algo=maddpg,ppo"], "algo = 'ppo' is invalid: must be one of maddpg, matd3"),
+    ("formation_rl.train", ["-m", "algo=maddpg,ppo"], "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3"),
     ("formation_rl.evaluate", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
     ("formation_rl.evaluate", ["ckpt=x", "episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
     ("formation_rl.evaluate", ["ckpt=x", "num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),

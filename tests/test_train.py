@@ -169,3 +169,21 @@ def test_n_step_transitions_carry_the_steps_they_look_ahead(tmp_path):
     assert stored.shape == (480,) and steps.shape == (480, 3, 1) and set(steps.unique().tolist()) == {1, 2, 3}
     # each collector batch is [8 copies, 20 steps]: the last two steps of a batch look ahead fewer steps
     assert (steps.view(-1, 8, 20, 3)[:, :, :18] == 3).all()
+
+
+def test_warmup_by_the_classical_controller_then_the_actors(tmp_path):
+    """algo.warmup_policy=apf: the warm-up frames are the controller's actions, the rest the actors'."""
+    cfg = tiny("matd3", frames=640)
+    cfg.algo.warmup_policy, cfg.algo.exploration_sigma, cfg.algo.exploration_sigma_end = "apf", 0.0, 0.0
+    cfg.algo.buffer_size = 640
+    trainer = Trainer(cfg, tmp_path)
+    trainer.train()
+    stored = trainer.buffer.storage[:640]  # in insertion order: [B * T] per collector batch of 160 frames
+    obs, act = stored["agents", "observation"], stored["agents", "action"]
+    from formation_rl.controllers import APFController
+
+    apf = APFController(cfg.env)(obs)
+    warm = slice(0, 320)  # the two batches that bring the buffer to warmup_frames
+    assert torch.allclose(act[warm], apf[warm], atol=1e-6)
+    # the actors act afterwards, and they act otherwise than the controller
+    assert not torch.allclose(act[320:], apf[320:], atol=1e-2)
