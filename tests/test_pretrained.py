@@ -1,0 +1,22 @@
+"""The shipped policy (pretrained/per_matd3.pt): loads without arguments and keeps what docs/RESULTS.md claims."""
+
+from pathlib import Path
+
+import torch
+
+import formation_rl
+from formation_rl.evaluate import evaluate_policy
+
+ROOT = Path(__file__).resolve().parents[1]
+CLAIMED_SUCCESS = 0.153  # docs/RESULTS.md: 1,000 held-out episodes
+TOLERANCE = 0.10  # 50 episodes: the binomial standard deviation at 15% is 0.05
+
+
+def test_pretrained_policy_loads_and_keeps_its_success_on_50_held_out_episodes():
+    policy = formation_rl.load_policy(ROOT / "pretrained" / "per_matd3.pt")
+    assert policy.algo == "per_matd3"
+    obs = torch.zeros(3, policy.env_config.num_robots, policy.env_config.obs_dim)
+    assert policy(obs).shape == (3, policy.env_config.num_robots, 2)
+    per = evaluate_policy(policy.module, policy.env_config, 50, 50, progress=False)
+    assert abs(per["success"].mean().item() - CLAIMED_SUCCESS) <= TOLERANCE
+    assert per["CBRO"].mean() < 2.37  # the paper's PER-MATD3 row, which it beats on obstacle collisions
