@@ -138,20 +138,21 @@ def main(cfg: DictConfig) -> None:
     if cfg.episodes < 1 or cfg.num_envs < 1:
         field_, value = ("episodes", cfg.episodes) if cfg.episodes < 1 else ("num_envs", cfg.num_envs)
         raise ValueError(f"{field_} = {value} is invalid: must be an integer >= 1")
-    if is_classical(ckpt):  # no checkpoint: the default world with the overrides, results into out or outputs/
-        path = Path(cfg.out or "outputs/eval/apf") / CLASSICAL
+    if is_classical(ckpt):  # no checkpoint: the default world with the overrides
+        source, default_out = CLASSICAL, Path("outputs/eval") / CLASSICAL
         env_cfg = _overridden_env(cfg, EnvConfig())
         policy = classical_policy(env_cfg, cfg.device)
     else:
         path = policy_path(ckpt)
+        source, default_out = str(path), path.parent
         policy = load_policy(path, cfg.device)
         env_cfg = _overridden_env(cfg, policy.env_config)
         policy.check_world(env_cfg)
     per_episode = evaluate_policy(policy.module, env_cfg, cfg.episodes, cfg.num_envs, cfg.seed, cfg.device)
     summary = summarize_ci(per_episode)
-    out_dir = Path(cfg.out) if cfg.out else path.parent
-    meta = {"ckpt": ckpt if is_classical(ckpt) else str(path), "algo": policy.algo, "episodes": cfg.episodes,
-            "seed": cfg.seed, "env": dataclasses.asdict(env_cfg)}
+    out_dir = Path(cfg.out) if cfg.out else default_out
+    meta = {"ckpt": source, "algo": policy.algo, "episodes": cfg.episodes, "seed": cfg.seed,
+            "env": dataclasses.asdict(env_cfg)}
     js, cs = write_results(summary, out_dir, meta)
     print(format_table(summary, f"{policy.algo} on {cfg.episodes} held-out episodes (seed {cfg.seed}):"))
     print(f"wrote {js} and {cs}")

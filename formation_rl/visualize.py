@@ -42,8 +42,11 @@ def main(cfg: DictConfig) -> None:
     if not cfg.ckpt:
         raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt, run directory or apf "
                          "(make render CKPT=...)")
-    path = Path(cfg.out or "outputs/render/apf") / CLASSICAL if is_classical(cfg.ckpt) else policy_path(cfg.ckpt)
-    policy = load_policy(cfg.ckpt if is_classical(cfg.ckpt) else path)
+    if is_classical(cfg.ckpt):
+        policy, default_out = load_policy(CLASSICAL), Path("outputs/render") / CLASSICAL
+    else:
+        path = policy_path(cfg.ckpt)
+        policy, default_out = load_policy(path), path.parent
     env_cfg = policy.env_config
     bad = [s for s in cfg.steps if not 0 <= s <= env_cfg.max_steps]
     if bad:
@@ -52,7 +55,7 @@ def main(cfg: DictConfig) -> None:
     with torch.no_grad():
         rollout = env.rollout(env_cfg.max_steps, policy.module, break_when_any_done=False)
     m = summarize(episode_metrics(rollout, env_cfg.goal_radius))
-    out = Path(cfg.out) if cfg.out else path.parent
+    out = Path(cfg.out) if cfg.out else default_out
     title = (f"{policy.algo}: CBRO {m['CBRO']:.1f}%  UDBLT {m['UDBLT']:.2f} m  RFSE {m['RFSE']:.2f} m  "
              f"success {m['success']:.0f}")
     try:
