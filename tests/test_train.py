@@ -11,6 +11,7 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 import formation_rl
 from formation_rl.config import TrainConfig
+from formation_rl.controllers import APFController
 from formation_rl.envs import EnvConfig
 from formation_rl.trainer import CHECKPOINT, POLICY, Trainer
 
@@ -180,8 +181,6 @@ def test_warmup_by_the_classical_controller_then_the_actors(tmp_path):
     trainer.train()
     stored = trainer.buffer.storage[:640]  # in insertion order: [B * T] per collector batch of 160 frames
     obs, act = stored["agents", "observation"], stored["agents", "action"]
-    from formation_rl.controllers import APFController
-
     apf = APFController(cfg.env)(obs)
     warm = slice(0, 320)  # the two batches that bring the buffer to warmup_frames
     assert torch.allclose(act[warm], apf[warm], atol=1e-6)
