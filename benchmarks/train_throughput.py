@@ -17,6 +17,9 @@ speed drifts from run to run:
    (losses, backward, optimisers, soft update), metrics and logging (evaluation excluded, reported
    apart); and the projected wall time of the paper's 9M-frame budget;
 4. scaling in N (robots: 3, 5, 9, 17) and in B (env copies: 1, 64, 1024, 4096), PER-MATD3.
+
+``--batch-sweep`` measures only the PER-MATD3 gradient step at replay batches 128 ... 2048 (gradient
+steps/s and samples/s, against batch 1024 in the same process): what a smaller batch buys per second.
 """
 
 from __future__ import annotations
@@ -110,10 +113,12 @@ def make_config(algo: str, **top) -> TrainConfig:
     return cfg
 
 
-def grad_step(algo_name: str, n: int = 5, steps: int = 30) -> dict:
+def grad_step(algo_name: str, n: int = 5, steps: int = 30, batch: int | None = None) -> dict:
     """Median milliseconds per gradient step on a filled buffer of random transitions, and its parts."""
     cfg = make_config(algo_name, num_robots=n)
     a, d = cfg.algo, cfg.env.obs_dim
+    if batch is not None:
+        a = replace(a, batch_size=batch)
     torch.manual_seed(0)
     algo = make_algorithm(make_actor(n, d, cfg.model.hidden), make_critic(n, d, cfg.model.hidden), replace(a))
     buffer = make_replay_buffer(replace(a, buffer_size=50_000))
@@ -216,6 +221,8 @@ def main() -> None:
     parser.add_argument("--json", default=None, help="also write the results to this JSON file")
     parser.add_argument("--quick", action="store_true", help="fewer steps and frames (a smoke run, noisier)")
     parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
+    parser.add_argument("--batch-sweep", action="store_true",
+                        help="only the PER-MATD3 gradient step at batches 128-2048 (steps/s, samples/s vs 1024)")
     parser.add_argument("--profile", action="store_true",
                         help="only print torch.profiler's top operators of 10 PER-MATD3 gradient steps")
     args = parser.parse_args()
@@ -224,6 +231,9 @@ def main() -> None:
     logging.getLogger("torchrl").setLevel(logging.WARNING)  # one INFO line per replay buffer otherwise
     if args.profile:
         profile_step()
+        return
+    if args.batch_sweep:
+        batch_sweep(8 if args.quick else 30)
         return
     steps, scale = (8, 0.25) if args.quick else (30, 1.0)
     out: dict = {"machine": {"cpu": _cpu(), "cores": os.cpu_count(), "threads": torch.get_num_threads(),
@@ -305,6 +315,16 @@ def main() -> None:
         with open(args.json, "w") as f:
             json.dump(out, f, indent=2, default=float)
         say(f"\nJSON: {args.json}")
+
+
+def batch_sweep(steps: int) -> None:
+    """PER-MATD3 gradient step (N=5, M=4, 128-wide) at several replay batch sizes, one process."""
+    print(f"## PER-MATD3 gradient step by replay batch (N=5, M=4, {torch.get_num_threads()} threads)\n")
+    print("| batch | ms / step | steps/s | samples/s | samples/s vs batch 1024 |")
+    print("|---:|---:|---:|---:|---:|")
+    rows = {b: grad_step("per_matd3", steps=steps, batch=b)["ms"] for b in (128, 256, 512, 1024, 2048)}
+    for b, ms in rows.items():
+        print(f"| {b} | {ms:.1f} | {1e3 / ms:.1f} | {1e3 * b / ms:,.0f} | {b / ms / (1024 / rows[1024]):.2f}x |")
 
 
 def _cpu() -> str:

@@ -37,12 +37,21 @@ FIGURES = {  # file: (title, [(tag, label)], y label)
     "fig9_rfse.png": ("Formation error (Fig. 9)", [("train/RFSE", None)], "RFSE (m)"),
 }
 
+# time to quality: the first periodic evaluation meeting every bound (metric, "<=" or ">=", value)
+THRESHOLDS = {
+    "UDBLT <= 0.08 m": [("UDBLT", "<=", 0.08)],
+    "success >= 10%": [("success", ">=", 0.10)],
+    "paper PER-MATD3 row + 90% success": [("CBRO", "<=", 2.37), ("UDBLT", "<=", 0.08), ("RFSE", "<=", 0.36),
+                                          ("success", ">=", 0.90)],
+}
+
 
 @dataclass
 class Run:
     path: Path
     config: dict
     scalars: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # tag -> (episodes, values)
+    evals: list[tuple[float, float, dict[str, float]]] = field(default_factory=list)  # (frames, seconds, eval/*)
     final: dict[str, float] | None = None
 
 
@@ -64,10 +73,21 @@ def load_run(path: Path) -> Run:
 
     config = yaml.safe_load((path / ".hydra" / "config.yaml").read_text())
     run = Run(path, config)
+    elapsed = 0.0  # training seconds before this events file (a resumed run writes one file per session)
+    evals: dict[float, tuple[float, dict[str, float]]] = {}
     for events in sorted((path / "tb").glob("events*")):
         ea = EventAccumulator(str(events), size_guidance={"scalars": 0})
         ea.Reload()
         tags = ea.Tags()["scalars"]
+        walls = [e.wall_time for t in tags for e in ea.Scalars(t)]
+        if not walls:
+            continue
+        start = min(walls)
+        for tag in (t for t in tags if t.startswith("eval/")):
+            for e in ea.Scalars(tag):
+                seconds, metrics = evals.setdefault(float(e.step), (elapsed + e.wall_time - start, {}))
+                metrics[tag[len("eval/"):]] = e.value
+        elapsed += max(walls) - start
         episodes = _series(ea, "perf/episodes") if "perf/episodes" in tags else None
         for tag in tags:
             frames, values = _series(ea, tag)
@@ -76,6 +96,7 @@ def load_run(path: Path) -> Run:
                 x0, v0 = run.scalars[tag]
                 x, values = np.concatenate([x0, x]), np.concatenate([v0, values])
             run.scalars[tag] = (x, values)
+    run.evals = [(frames, seconds, metrics) for frames, (seconds, metrics) in sorted(evals.items())]
     for candidate in (path / "checkpoints" / "metrics.json", path / "metrics.json"):
         if candidate.is_file():
             run.final = {k: v for k, v in json.loads(candidate.read_text()).items() if isinstance(v, (int, float))}
@@ -171,6 +192,59 @@ def write_table(rows: list[dict], out: Path) -> tuple[Path, Path]:
     return md, out / "table1.csv"
 
 
+def time_to_quality(run: Run) -> dict[str, tuple[float, float] | None]:
+    """Per threshold, (frames, seconds) of the first periodic evaluation meeting it, or None."""
+    out: dict[str, tuple[float, float] | None] = {}
+    for name, bounds in THRESHOLDS.items():
+        out[name] = next(((frames, seconds) for frames, seconds, m in run.evals
+                          if all(k in m and (m[k] <= v if op == "<=" else m[k] >= v) for k, op, v in bounds)), None)
+    return out
+
+
+def write_time_to_quality(groups: dict[str, list[Run]], out: Path) -> Path:
+    lines = ["| group | run | " + " | ".join(THRESHOLDS) + " | last evaluation |", "|---" * (len(THRESHOLDS) + 3) + "|"]
+    for g, runs in groups.items():
+        for r in runs:
+            reached = time_to_quality(r)
+            cells = ["not reached" if hit is None else f"{hit[0]:,.0f} frames, {hit[1] / 60:.1f} min"
+                     for hit in reached.values()]
+            last = (f"{r.evals[-1][0]:,.0f} frames, {r.evals[-1][1] / 60:.1f} min" if r.evals else "none")
+            lines.append(f"| {g} | {r.path.name} | " + " | ".join(cells) + f" | {last} |")
+    md = out / "time_to_quality.md"
+    md.write_text("\n".join(lines) + "\n\nFrames and training wall time (seconds since the run's first TensorBoard "
+                  "event, summed over resumed sessions) at the first periodic evaluation (`eval/*`) that met every "
+                  "bound of the column.\n")
+    return md
+
+
+def plot_time_to_quality(groups: dict[str, list[Run]], out: Path) -> Path | None:
+    """The periodic evaluation of every run against training wall time, with the paper's PER-MATD3 bounds."""
+    panels = [("UDBLT", "UDBLT (m)", 0.08, True), ("CBRS", "CBRS (%)", None, False),
+              ("CBRO", "CBRO (%)", 2.37, False), ("RFSE", "RFSE (m)", 0.36, True), ("success", "success", 0.9, False)]
+    runs = [(g, r) for g, rs in groups.items() for r in rs if r.evals]
+    if not runs:
+        return None
+    fig, axes = plt.subplots(1, len(panels), figsize=(4 * len(panels), 3.6), dpi=100)
+    for ax, (metric, label, bound, log) in zip(axes, panels, strict=True):
+        for g, r in runs:
+            pts = [(seconds / 60, m[metric]) for _, seconds, m in r.evals if metric in m]
+            if pts:
+                ax.plot(*zip(*pts, strict=True), marker=".", label=f"{g}: {r.path.name}")
+        if bound is not None:
+            ax.axhline(bound, color="k", ls="--", lw=0.8)
+        if log:
+            ax.set_yscale("log")
+        ax.set_xlabel("training wall time (min)")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle("Periodic evaluation against wall time (dashed: the paper's PER-MATD3 row, 90% success)")
+    fig.tight_layout()
+    fig.savefig(out / "time_to_quality.png")
+    plt.close(fig)
+    return out / "time_to_quality.png"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Figures 6-9 and Table 1 from training runs")
     parser.add_argument("runs", nargs="+", help="run directories or directories holding them (a sweep)")
@@ -195,13 +269,16 @@ def main(argv: list[str] | None = None) -> int:
             if not figs:
                 raise ValueError(f"runs: none of {len(runs)} run(s) has train/* curves in tb/ (formation_rl runs?)")
             md, cs = write_table(table(groups), out)
+            ttq = write_time_to_quality(groups, out)
+            figs += [f for f in [plot_time_to_quality(groups, out)] if f is not None]
         except OSError as err:
             raise ValueError(f"cannot write the report to {out}: {err.strerror or err}") from None
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     print(md.read_text())
-    print("wrote " + ", ".join(str(p) for p in [*figs, md, cs]))
+    print(ttq.read_text())
+    print("wrote " + ", ".join(str(p) for p in [*figs, md, cs, ttq]))
     return 0
 
 

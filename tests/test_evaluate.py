@@ -115,6 +115,24 @@ def test_report_on_two_synthetic_runs(tmp_path):
     assert "| matd3 | 2 |" in (tmp_path / "table1.md").read_text()
 
 
+def test_report_time_to_quality(tmp_path):
+    run = synthetic_run(tmp_path, "per_matd3", 0, {"success": 0.2}, 1.0)
+    w = SummaryWriter(str(run / "tb"), filename_suffix=".eval")
+    # evaluations at 0, 1000, 2000, 3000 frames, 60 s apart: UDBLT <= 0.08 first at 2000, 10% success at 3000
+    for k, (udblt, success) in enumerate([(5.0, 0.0), (0.5, 0.0), (0.07, 0.05), (0.06, 0.2)]):
+        for tag, v in (("UDBLT", udblt), ("success", success), ("CBRO", 1.0), ("RFSE", 3.0)):
+            w.add_scalar(f"eval/{tag}", v, 1000 * k, walltime=1000.0 + 60 * k)
+    w.close()
+    loaded = report.load_run(run)
+    assert report.time_to_quality(loaded) == {"UDBLT <= 0.08 m": (2000, pytest.approx(120.0, abs=0.1)),
+                                              "success >= 10%": (3000, pytest.approx(180.0, abs=0.1)),
+                                              "paper PER-MATD3 row + 90% success": None}
+    assert report.main([str(tmp_path)]) == 0
+    md = (tmp_path / "time_to_quality.md").read_text()
+    assert "| per_matd3 | per_matd3_seed0 | 2,000 frames, 2.0 min | 3,000 frames, 3.0 min | not reached |" in md
+    assert (tmp_path / "time_to_quality.png").stat().st_size > 5_000
+
+
 def test_report_errors(tmp_path, capsys):
     assert report.main([str(tmp_path)]) == 2
     assert "no training run" in capsys.readouterr().err
