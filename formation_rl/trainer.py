@@ -9,7 +9,9 @@ from __future__ import annotations
 import dataclasses
 import os
 import random
+import shutil
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -73,6 +75,38 @@ def atomic_save(obj, path: Path) -> None:
         os.replace(tmp, path)
     except OSError as err:
         raise ValueError(f"cannot write {path}: {err.strerror or err}; the previous file there is unchanged") from None
+
+
+BUFFER_DIR = "buffer"  # beside last.pt, with save_buffer=true
+_COMPLETE = "COMPLETE"  # marker written into a buffer dump once every file of it is on disk
+
+
+def dump_buffer(buffer, directory: Path) -> None:
+    """``buffer.dumps`` into ``directory`` without ever leaving only a half-written dump.
+
+    The dump goes to ``<dir>.tmp``, gets a completion marker, then replaces ``<dir>`` by two
+    renames; :func:`buffer_dump_to_load` finds the complete dump whichever step a crash hit.
+    """
+    tmp, old = directory.with_name(directory.name + ".tmp"), directory.with_name(directory.name + ".old")
+    try:
+        shutil.rmtree(tmp, ignore_errors=True)
+        buffer.dumps(tmp)
+        (tmp / _COMPLETE).touch()
+        if directory.exists():
+            shutil.rmtree(old, ignore_errors=True)
+            os.replace(directory, old)
+        os.replace(tmp, directory)
+        shutil.rmtree(old, ignore_errors=True)
+    except OSError as err:
+        raise ValueError(f"cannot write the replay buffer to {directory}: {err.strerror or err}") from None
+
+
+def buffer_dump_to_load(directory: Path) -> Path | None:
+    """The newest complete dump of :func:`dump_buffer` (a crash may have stopped it between renames)."""
+    for candidate in (directory, *(directory.with_name(directory.name + ext) for ext in (".tmp", ".old"))):
+        if (candidate / _COMPLETE).is_file():
+            return candidate
+    return None
 
 
 class Trainer:
@@ -272,12 +306,11 @@ class Trainer:
             "counters": {"frames": self.frames, "episodes": self.episodes, "next_eval": self.next_eval,
                          "next_checkpoint": self.next_checkpoint},
             "rng": {**_rng_state(), "env": self.env._generator.get_state()},
-            "sampler": self.buffer.sampler.state_dict() if self.cfg.algo.prioritized and self.cfg.save_buffer else None,
         }
         path = self.run_dir / CHECKPOINT
         with self.timings("checkpoint"):
-            if self.cfg.save_buffer:
-                self.buffer.dumps(path.parent / "buffer")
+            if self.cfg.save_buffer:  # first: a crash before last.pt leaves a buffer newer than the counters, no worse
+                dump_buffer(self.buffer, path.parent / BUFFER_DIR)
             atomic_save(state, path)
             atomic_save(self.policy_state(), self.run_dir / POLICY)
         return path
@@ -307,9 +340,13 @@ class Trainer:
         self._resumed_frames = self.frames
         self._rng = state["rng"]
         self.env._generator.set_state(state["rng"]["env"])
-        buffer_dir = path.parent / "buffer"
-        if self.cfg.save_buffer and buffer_dir.exists():
-            self.buffer.loads(buffer_dir)
+        dump = buffer_dump_to_load(path.parent / BUFFER_DIR) if self.cfg.save_buffer else None
+        if dump is not None:
+            self.buffer.loads(dump)
+        elif self.cfg.save_buffer and (path.parent / BUFFER_DIR).exists():
+            warnings.warn(f"resume: the replay buffer dump {path.parent / BUFFER_DIR} has no {_COMPLETE} marker "
+                          "(cut short, or written by an older formation_rl): the buffer starts empty and refills",
+                          stacklevel=2)
 
     @staticmethod
     def _seed_everything(seed: int) -> None:
