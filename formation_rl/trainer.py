@@ -89,6 +89,8 @@ def dump_buffer(buffer, directory: Path) -> None:
     """
     tmp, old = directory.with_name(directory.name + ".tmp"), directory.with_name(directory.name + ".old")
     try:
+        if not directory.exists() and (tmp / _COMPLETE).is_file():  # a crash between the renames: keep that dump
+            os.replace(tmp, directory)
         shutil.rmtree(tmp, ignore_errors=True)
         buffer.dumps(tmp)
         (tmp / _COMPLETE).touch()
