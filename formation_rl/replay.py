@@ -20,14 +20,27 @@ TRANSITION_KEYS = [
 ]
 
 
+def priority_tree_device(device: torch.device | str) -> torch.device:
+    """Where PER's sum and min trees live: beside a CUDA storage when the installed TorchRL extension has
+    CUDA trees, else on the CPU (TorchRL wheels built without CUDA refuse a CUDA tree)."""
+    device = torch.device(device)
+    if device.type == "cuda":
+        from torchrl.data.replay_buffers.samplers import prioritized
+
+        if prioritized.CudaSumSegmentTreeFp32 is not None:
+            return device
+    return torch.device("cpu")
+
+
 def make_replay_buffer(cfg: AlgoConfig, device: torch.device | str = "cpu"):
-    """Uniform (MADDPG, MATD3) or prioritized (PER-MATD3) TorchRL buffer of ``cfg.buffer_size`` frames."""
+    """Uniform (MADDPG, MATD3) or prioritized (PER-MATD3) TorchRL buffer of ``cfg.buffer_size`` frames,
+    its transitions stored on ``device``."""
     storage = LazyTensorStorage(cfg.buffer_size, device=device)
     if cfg.prioritized:
         # priority p = (max over robots of |delta| + eps)^alpha (eq. 17); weights (p / p_min)^-beta (eq. 20)
         return TensorDictPrioritizedReplayBuffer(
             alpha=cfg.alpha, beta=cfg.beta, eps=cfg.priority_eps, storage=storage, batch_size=cfg.batch_size,
-            priority_key=PRIORITY_KEY, reduction="max",
+            priority_key=PRIORITY_KEY, reduction="max", sampler_device=priority_tree_device(device),
         )
     return TensorDictReplayBuffer(storage=storage, batch_size=cfg.batch_size)
 
