@@ -130,6 +130,8 @@ class Trainer:
         self.actor = make_actor(n, d, hidden, cfg.model.activation).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation).to(dev)
         self.algo = make_algorithm(self.actor, critic, a)
+        if cfg.cudagraphs:
+            self.algo.enable_cudagraphs()
         # exploration noise on the collection policy only (evaluation and targets use self.actor)
         self.noise = AdditiveGaussianModule(
             spec=self.env.full_action_spec_unbatched[("agents", "action")].to(dev), sigma_init=a.exploration_sigma,

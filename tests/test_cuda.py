@@ -82,3 +82,52 @@ def test_tiny_run_on_cuda_resumes_and_loads_on_cpu(tmp_path, algo):
     policy = formation_rl.load_policy(tmp_path, device="cpu")
     obs = torch.zeros(2, cfg.env.num_robots, cfg.env.obs_dim)
     assert policy(obs).shape == (2, cfg.env.num_robots, 2)
+
+
+@pytest.mark.parametrize("name", ["maddpg", "matd3", "per_matd3"])
+def test_cudagraph_steps_match_eager_steps(name):
+    """cudagraphs=true replays the same update: same batches, same parameters as the eager step
+    (target-policy noise off, so both draw nothing random), the actor delay and PER weights included."""
+    from algorithms.conftest import D, N, make_batch
+
+    from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, make_algorithm
+    from formation_rl.config import AlgoConfig
+    from formation_rl.models import make_actor, make_critic
+
+    cfg = AlgoConfig(name=name, policy_noise=0.0, num_critics=1 if name == "maddpg" else 2,
+                     policy_delay=1 if name == "maddpg" else 2)
+    algos = []
+    for graphed in (False, True):
+        torch.manual_seed(0)
+        algo = make_algorithm(make_actor(N, D, (16, 16)).cuda(), make_critic(N, D, (16, 16)).cuda(), cfg)
+        if graphed:
+            algo.enable_cudagraphs()
+        algos.append(algo)
+    for i in range(9):  # 3 eager warm-up calls per graph, then capture and replays
+        batch = make_batch(32).to("cuda")
+        batch["next", "agents", "reward"] += i
+        if name == "per_matd3":
+            batch[WEIGHT_KEY] = torch.rand(32, device="cuda")
+            batch["index"] = torch.arange(32)  # on the CPU, as CPU priority trees give it
+        batches = [batch.clone(), batch.clone()]
+        outs = [a.update(b) for a, b in zip(algos, batches, strict=True)]
+        torch.testing.assert_close(outs[0]["loss_critic"], outs[1]["loss_critic"], rtol=1e-4, atol=1e-5)
+        torch.testing.assert_close(batches[0][PRIORITY_KEY], batches[1][PRIORITY_KEY], rtol=1e-4, atol=1e-5)
+    assert algos[1]._graphs and all(g.counter >= 3 for g in algos[1]._graphs.values())  # captured
+    for eager, graphed in zip(algos[0].loss.parameters(), algos[1].loss.parameters(), strict=True):
+        torch.testing.assert_close(eager, graphed, rtol=1e-4, atol=1e-5)
+    assert algos[0].actor_steps == algos[1].actor_steps > 0
+
+
+@pytest.mark.parametrize("algo", ["matd3", "per_matd3"])
+def test_cudagraph_training_resumes_without_graphs(tmp_path, algo):
+    cfg = tiny(algo, frames=3200, device="cuda")
+    cfg.cudagraphs = True
+    trainer = Trainer(cfg, tmp_path)
+    metrics = trainer.train()
+    assert trainer.algo.critic_steps == (3200 - 160) // 20 and set(metrics) >= {"CBRO", "success"}
+    assert all(torch.isfinite(p).all() for p in trainer.algo.actor_params)
+    again = Trainer(tiny(algo, frames=4800, device="cuda"), tmp_path)  # cudagraphs off: plain Adam again
+    again.load_checkpoint("auto")
+    again.train()
+    assert again.frames == 4800

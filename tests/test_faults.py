@@ -123,6 +123,7 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["algo.beta=-0.5"], "algo.beta = -0.5 is invalid: must be in [0, 1]"),
     ("train", ["eval_episodes=0"], "eval_episodes = 0 is invalid: must be an integer >= 1"),
     ("train", ["device=tpu"], "device = 'tpu' is invalid: must be cpu, cuda or cuda:<index>"),
+    ("train", ["cudagraphs=true"], "cudagraphs = True is invalid: must be false with device=cpu (CUDA graphs need"),
     ("train", ["env.max_speed=0"], "env.max_speed = 0.0 is invalid: must be a finite number > 0"),
     ("train", ["resume=/no/such/run"], "resume = '/no/such/run' is invalid: no checkpoint at /no/such/run"),
     ("formation_rl.train", ["-m", "algo=maddpg,ppo"], "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3"),

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import functools
+
 import torch
-from tensordict import TensorDictBase
+from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule, SoftUpdate, ValueEstimators
 
 from formation_rl.config import AlgoConfig
@@ -21,6 +23,7 @@ class NonFiniteError(ValueError):
 
 PRIORITY_KEY = "td_error"  # where |delta| [B, N] goes for the prioritized buffer (eq. 17)
 WEIGHT_KEY = "priority_weight"  # importance weights [B] from the prioritized buffer (eq. 20)
+CUDAGRAPH_WARMUP = 3  # eager calls of each gradient-step graph before it is captured (optimiser state, lazy init)
 
 
 class Algorithm:
@@ -45,6 +48,8 @@ class Algorithm:
         self.target_updater = SoftUpdate(self.loss, tau=cfg.tau)
         self.critic_steps = 0
         self.actor_steps = 0
+        self.cudagraphs = False  # enable_cudagraphs(): replay the step from CUDA graphs
+        self._graphs: dict[bool, object] = {}
 
     # ------------------------------------------------------------------ one gradient step
     def update(self, batch: TensorDictBase) -> dict[str, torch.Tensor]:
@@ -52,6 +57,21 @@ class Algorithm:
 
         Writes ``|delta|`` ``[B, N]`` (max over critics) at ``PRIORITY_KEY`` in ``batch``.
         """
+        with_actor = (self.critic_steps + 1) % self.cfg.policy_delay == 0
+        if self.cudagraphs:
+            out = self._graphed_step(batch, with_actor)
+        else:
+            out = self._step(batch, with_actor, check=True)
+        self.critic_steps += 1
+        self.actor_steps += with_actor
+        batch.set(PRIORITY_KEY, out.pop("priority"))
+        out.pop("finite", None)
+        return out.to_dict()
+
+    def _step(self, batch: TensorDictBase, with_actor: bool, check: bool = False) -> TensorDict:
+        """The update itself, free of host synchronisation unless ``check``: with ``check`` a non-finite
+        loss or gradient raises before its optimiser steps; without it (under a CUDA graph) the step
+        returns a ``finite`` flag for the caller to raise on, after the fact."""
         weights = batch.get(WEIGHT_KEY, None)  # [B], normalised by their max (eq. 20)
         per_sample, meta = self._critic_loss(batch.exclude(WEIGHT_KEY))  # [B, N], summed over critics
         if weights is not None:
@@ -60,29 +80,68 @@ class Algorithm:
             critic_loss = per_sample.mean()
         self.critic_optim.zero_grad(set_to_none=True)
         critic_loss.backward()
-        critic_grad = _check_finite(critic_loss, self.critic_params, "critic")
+        critic_grad = _grad_norm(self.critic_params)
+        if check:
+            _raise_if_nonfinite(critic_loss, critic_grad, "critic")
+        finite = torch.isfinite(critic_loss) & torch.isfinite(critic_grad)
         self.critic_optim.step()
-        self.critic_steps += 1
 
         pred, target = meta["pred_value"], meta["target_value"]  # [C, B, N] or [B, N]; [B, N]
         td_error = (pred - target).abs()
         if td_error.dim() == 3:
             td_error = td_error.amax(0)  # max over the twin critics (eq. 17)
-        batch.set(PRIORITY_KEY, td_error.detach())
-        out = {"loss_critic": critic_loss.detach(), "q_value": pred.mean().detach(),
-               "td_error": td_error.mean().detach(), "grad_norm_critic": critic_grad}
+        out = TensorDict(loss_critic=critic_loss.detach(), q_value=pred.mean().detach(),
+                         td_error=td_error.mean().detach(), grad_norm_critic=critic_grad,
+                         priority=td_error.detach())
 
-        if self.critic_steps % self.cfg.policy_delay == 0:
+        if with_actor:
             # actor loss without importance weights: eq. 21-22 weight the critic losses only
             actor_loss = self._actor_loss(batch)[0]
             self.actor_optim.zero_grad(set_to_none=True)
             actor_loss.backward()
-            out["grad_norm_actor"] = _check_finite(actor_loss, self.actor_params, "actor")
+            actor_grad = _grad_norm(self.actor_params)
+            if check:
+                _raise_if_nonfinite(actor_loss, actor_grad, "actor")
+            finite = finite & torch.isfinite(actor_loss) & torch.isfinite(actor_grad)
             self.actor_optim.step()
-            self.actor_steps += 1
             self.target_updater.step()
-            out["loss_actor"] = actor_loss.detach()
+            out["loss_actor"], out["grad_norm_actor"] = actor_loss.detach(), actor_grad
+        out["finite"] = finite
         return out
+
+    def _graphed_step(self, batch: TensorDictBase, with_actor: bool) -> TensorDict:
+        """:meth:`_step` replayed from a CUDA graph (tensordict's ``CudaGraphModule``), one graph with
+        the actor step and one without; captured on first use, after ``CUDAGRAPH_WARMUP`` eager calls."""
+        graph = self._graphs.get(with_actor)
+        if graph is None:
+            from tensordict.nn import CudaGraphModule
+
+            graph = self._graphs[with_actor] = CudaGraphModule(
+                functools.partial(self._step, with_actor=with_actor), in_keys=[], out_keys=[],
+                warmup=CUDAGRAPH_WARMUP)
+        device = self.actor_params[0].device
+        inputs = batch.exclude("index")  # the sampler's indices may live on the CPU (PER trees)
+        weights = inputs.get(WEIGHT_KEY, None)
+        if weights is not None:
+            inputs.set(WEIGHT_KEY, weights.to(device, non_blocking=True))
+        out = graph(inputs)
+        if not bool(out["finite"]):
+            part = "critic" if not with_actor or bool(torch.isfinite(out["loss_critic"])) else "actor"
+            raise NonFiniteError(f"the {part} loss or gradient went non-finite (under CUDA graphs the step was "
+                                 f"already applied to the in-memory networks; nothing was saved with it)")
+        return out
+
+    def enable_cudagraphs(self) -> None:
+        """Replay each gradient step from a CUDA graph (device=cuda): Adam becomes ``capturable``."""
+        for optim in (self.actor_optim, self.critic_optim):
+            for group in optim.param_groups:
+                group["capturable"] = True
+                for p in group["params"]:  # a loaded state keeps Adam's step count on the CPU
+                    state = optim.state.get(p, {})
+                    if torch.is_tensor(state.get("step")):
+                        state["step"] = state["step"].to(device=p.device, dtype=torch.float32)
+        self.cudagraphs = True
+        self._graphs = {}
 
     def _critic_loss(self, batch: TensorDictBase):
         return self.loss.value_loss(batch)
@@ -130,13 +189,22 @@ class Algorithm:
         self.critic_optim.load_state_dict(state["critic_optim"])
         self.critic_steps = state["critic_steps"]
         self.actor_steps = state["actor_steps"]
+        if self.cudagraphs:  # the loaded optimiser state is new memory: capture again
+            self.enable_cudagraphs()
+        else:  # a state saved under CUDA graphs resumes without them (on the CPU, say)
+            for optim in (self.actor_optim, self.critic_optim):
+                for group in optim.param_groups:
+                    group["capturable"] = False
 
 
-def _check_finite(loss: torch.Tensor, params: list[torch.Tensor], name: str) -> torch.Tensor:
-    """The gradient norm of ``params``; raise before any optimiser step if it or the loss is not finite."""
+def _grad_norm(params: list[torch.Tensor]) -> torch.Tensor:
+    """The gradient norm of ``params`` (no clipping), without a host synchronisation."""
+    return torch.nn.utils.clip_grad_norm_(params, float("inf")).detach()
+
+
+def _raise_if_nonfinite(loss: torch.Tensor, norm: torch.Tensor, name: str) -> None:
+    """Raise before any optimiser step if the loss or its gradient norm is not finite."""
     if not torch.isfinite(loss):
         raise NonFiniteError(f"the {name} loss went non-finite ({loss.item()})")
-    norm = torch.nn.utils.clip_grad_norm_(params, float("inf"))
     if not torch.isfinite(norm):
         raise NonFiniteError(f"the {name} gradient went non-finite (norm {norm.item()})")
-    return norm.detach()
