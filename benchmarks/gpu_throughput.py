@@ -16,23 +16,21 @@ import logging
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import torch
 
-from formation_rl.config import TrainConfig
 from formation_rl.trainer import Trainer
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from train_throughput import make_config  # noqa: E402
 
 PAPER = dict(num_envs=64, steps_per_batch=25, eval_episodes=100, progress=False, device="cuda")
 
 
 def measure(algo: str, cudagraphs: bool, frames: int) -> dict:
-    cfg = TrainConfig(total_frames=frames, eval_interval=10 * frames, checkpoint_interval=10 * frames,
-                      cudagraphs=cudagraphs, **PAPER)
-    cfg.algo.name = algo
-    if algo == "maddpg":
-        cfg.algo.num_critics, cfg.algo.policy_delay, cfg.algo.policy_noise, cfg.algo.prioritized = 1, 1, 0.0, False
-    if algo == "matd3":
-        cfg.algo.prioritized = False
+    cfg = make_config(algo, total_frames=frames, eval_interval=10 * frames, checkpoint_interval=10 * frames,
+                      cudagraphs=cudagraphs, **PAPER)  # the algorithm's conf/algo/*.yaml
     with tempfile.TemporaryDirectory() as tmp:
         trainer = Trainer(cfg, tmp)
         start = time.perf_counter()
