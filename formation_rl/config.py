@@ -63,7 +63,7 @@ class TrainConfig:
     steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames
     device: str = "cpu"  # cpu | cuda | cuda:0 ...
     compile_env: bool = False  # torch.compile the env's step program (faster at large num_envs)
-    cudagraphs: bool = False  # replay the gradient step and the collection policy from CUDA graphs (device=cuda)
+    cudagraphs: bool = False  # replay each gradient step from CUDA graphs (device=cuda; the policy is not graphed)
     eval_interval: int = 100_000  # frames between deterministic evaluations (and at the end)
     eval_episodes: int = 100  # held-out episodes per evaluation, run as that many batched copies
     eval_seed: int = 1_000_000_007  # scenario seed of the evaluation set, disjoint from training seeds

@@ -133,13 +133,11 @@ class Algorithm:
 
     def enable_cudagraphs(self) -> None:
         """Replay each gradient step from a CUDA graph (device=cuda): Adam becomes ``capturable``."""
+        self._set_capturable(True)
         for optim in (self.actor_optim, self.critic_optim):
-            for group in optim.param_groups:
-                group["capturable"] = True
-                for p in group["params"]:  # a loaded state keeps Adam's step count on the CPU
-                    state = optim.state.get(p, {})
-                    if torch.is_tensor(state.get("step")):
-                        state["step"] = state["step"].to(device=p.device, dtype=torch.float32)
+            for p, state in optim.state.items():  # a loaded state keeps Adam's step count on the CPU
+                if torch.is_tensor(state.get("step")):
+                    state["step"] = state["step"].to(device=p.device, dtype=torch.float32)
         self.cudagraphs = True
         self._graphs = {}
 
@@ -192,9 +190,12 @@ class Algorithm:
         if self.cudagraphs:  # the loaded optimiser state is new memory: capture again
             self.enable_cudagraphs()
         else:  # a state saved under CUDA graphs resumes without them (on the CPU, say)
-            for optim in (self.actor_optim, self.critic_optim):
-                for group in optim.param_groups:
-                    group["capturable"] = False
+            self._set_capturable(False)
+
+    def _set_capturable(self, on: bool) -> None:
+        for optim in (self.actor_optim, self.critic_optim):
+            for group in optim.param_groups:
+                group["capturable"] = on
 
 
 def _grad_norm(params: list[torch.Tensor]) -> torch.Tensor:
