@@ -6,6 +6,11 @@ Each run directory (Hydra's, with ``.hydra/config.yaml`` and ``tb/``) is grouped
 curves are the mean over the group's seeds with a shaded min-max spread, smoothed; Table 1 takes
 each run's final evaluation (``checkpoints/metrics.json`` from ``make eval`` when present, else the
 training run's ``metrics.json``) and reports mean ± 95% CI across seeds beside the paper's numbers.
+
+A directory written by ``make eval ... ARGS="out=DIR"`` (a ``metrics.json`` that records its evaluation) counts
+as a run without curves: it enters Table 1, grouped by the same keys (``algo.name``, ``env.reward.variant``, ...
+read from what it records), and no figure. So the table can be rebuilt from the ``metrics.json`` files kept in
+``docs/results`` after the training runs' TensorBoard directories are gone.
 """
 
 from __future__ import annotations
@@ -57,20 +62,44 @@ class Run:
 
 def find_runs(paths: list[str]) -> list[Path]:
     """Run directories under ``paths`` (a run dir holds ``.hydra/config.yaml`` and ``tb/``)."""
-    runs = []
+    runs: list[Path] = []
     for p in map(Path, paths):
         if not p.exists():
             raise ValueError(f"runs: {str(p)!r} does not exist")
-        candidates = [p] if (p / ".hydra").is_dir() else sorted(c.parent.parent for c in p.rglob(".hydra/config.yaml"))
-        runs += [c for c in candidates if (c / "tb").is_dir()]
+        if (p / ".hydra").is_dir() or _evaluation(p) is not None:
+            candidates = [p]
+        else:
+            candidates = sorted({c.parent.parent for c in p.rglob(".hydra/config.yaml")}
+                                | {m.parent for m in p.rglob("metrics.json") if _evaluation(m.parent) is not None})
+        runs += [c for c in candidates if (c / "tb").is_dir() or _evaluation(c) is not None]
+    # an evaluation inside a training run (its checkpoints/metrics.json) is that run's final, not a run of its own
+    trained = [r for r in runs if (r / ".hydra").is_dir()]
+    runs = [r for r in runs if (r / ".hydra").is_dir() or not any(t in r.parents for t in trained)]
     if not runs:
-        raise ValueError(f"runs: no training run (a directory with .hydra/config.yaml and tb/) under {paths}")
-    return runs
+        raise ValueError(f"runs: no training run (a directory with .hydra/config.yaml and tb/) and no evaluation "
+                         f"(a metrics.json written by make eval) under {paths}")
+    return list(dict.fromkeys(runs))
+
+
+def _evaluation(path: Path) -> dict | None:
+    """The record of ``make eval`` in ``path/metrics.json`` (what was evaluated, on which world), if any."""
+    if (path / ".hydra").is_dir() or not (path / "metrics.json").is_file():
+        return None
+    try:
+        record = json.loads((path / "metrics.json").read_text()).get("eval")
+    except (ValueError, AttributeError):
+        return None
+    return record if isinstance(record, dict) and "algo" in record and "env" in record else None
 
 
 def load_run(path: Path) -> Run:
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
+    record = _evaluation(path)
+    if record is not None:  # an evaluation directory: a final, no curves
+        final = json.loads((path / "metrics.json").read_text())
+        config = {"algo": {"name": record["algo"]}, "env": record["env"], "ckpt": record.get("ckpt")}
+        return Run(path, config, final={k: v for k, v in final.items() if isinstance(v, (int, float))})
     config = yaml.safe_load((path / ".hydra" / "config.yaml").read_text())
     run = Run(path, config)
     elapsed = 0.0  # training seconds before this events file (a resumed run writes one file per session)
@@ -204,7 +233,7 @@ def time_to_quality(run: Run) -> dict[str, tuple[float, float] | None]:
 def write_time_to_quality(groups: dict[str, list[Run]], out: Path) -> Path:
     lines = ["| group | run | " + " | ".join(THRESHOLDS) + " | last evaluation |", "|---" * (len(THRESHOLDS) + 3) + "|"]
     for g, runs in groups.items():
-        for r in runs:
+        for r in (r for r in runs if r.scalars):  # training runs; an evaluation directory has no periodic evaluation
             reached = time_to_quality(r)
             cells = ["not reached" if hit is None else f"{hit[0]:,.0f} frames, {hit[1] / 60:.1f} min"
                      for hit in reached.values()]
@@ -265,11 +294,13 @@ def main(argv: list[str] | None = None) -> int:
         out = Path(args.out or args.runs[0])
         try:
             out.mkdir(parents=True, exist_ok=True)
-            figs = plot_figures(groups, out, args.smooth)
-            if not figs:
-                raise ValueError(f"runs: none of {len(runs)} run(s) has train/* curves in tb/ (formation_rl runs?)")
+            trained = [r for r in runs if (r.path / ".hydra").is_dir()]
+            figs = plot_figures(groups, out, args.smooth) if trained else []
+            if trained and not figs:
+                raise ValueError(f"runs: none of {len(trained)} training run(s) has train/* curves in tb/ "
+                                 "(formation_rl runs?)")
             md, cs = write_table(table(groups), out)
-            ttq = write_time_to_quality(groups, out)
+            ttq = write_time_to_quality(groups, out) if trained else None
             figs += [f for f in [plot_time_to_quality(groups, out)] if f is not None]
         except OSError as err:
             raise ValueError(f"cannot write the report to {out}: {err.strerror or err}") from None
@@ -277,8 +308,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     print(md.read_text())
-    print(ttq.read_text())
-    print("wrote " + ", ".join(str(p) for p in [*figs, md, cs, ttq]))
+    if ttq is not None:
+        print(ttq.read_text())
+    print("wrote " + ", ".join(str(p) for p in [*figs, md, cs, *([ttq] if ttq else [])]))
     return 0
 
 

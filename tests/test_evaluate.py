@@ -133,6 +133,39 @@ def test_report_time_to_quality(tmp_path):
     assert (tmp_path / "time_to_quality.png").stat().st_size > 5_000
 
 
+def evaluation_dir(root: Path, name: str, algo: str, variant: str, final: dict) -> Path:
+    """What ``make eval ... ARGS="out=DIR"`` leaves: metrics.json recording what it evaluated."""
+    out = root / name
+    out.mkdir(parents=True)
+    record = {"ckpt": f"outputs/train/{name}/checkpoints/policy.pt", "algo": algo, "episodes": 1000,
+              "env": {"num_robots": 5, "reward": {"variant": variant}}}
+    (out / "metrics.json").write_text(json.dumps({**final, "ci95": {}, "eval": record}))
+    return out
+
+
+def test_report_table_from_evaluation_directories(tmp_path):
+    """Table 1 rebuilt from kept metrics.json files once the training runs' tb/ are gone."""
+    base = {"episode_reward": -100.0, "CBRS": 1.0, "CBRO": 2.0, "UDBLT": 0.1, "RFSE": 0.5, "success": 0.5}
+    results = tmp_path / "results"
+    evaluation_dir(results, "per_matd3_seed0", "per_matd3", "hybrid", base)
+    evaluation_dir(results, "per_matd3_seed1", "per_matd3", "hybrid", {**base, "CBRO": 1.0})
+    evaluation_dir(results, "per_matd3_fixed_seed0", "per_matd3", "fixed", {**base, "CBRO": 5.0})
+    figures = tmp_path / "figures"
+    assert report.main([str(results), "--out", str(figures)]) == 0
+    rows = {r["group"]: r for r in csv.DictReader((figures / "table1.csv").open())}
+    assert rows["per_matd3"]["seeds"] == "3" and float(rows["per_matd3"]["CBRO"]) == pytest.approx(8 / 3)
+    assert not list(figures.glob("*.png")) and not (figures / "time_to_quality.md").exists()
+    assert report.main([str(results), "--by", "env.reward.variant", "--out", str(figures)]) == 0
+    rows = {r["group"]: r for r in csv.DictReader((figures / "table1.csv").open())}
+    assert float(rows["hybrid"]["CBRO"]) == pytest.approx(1.5) and rows["fixed"]["seeds"] == "1"
+    # the evaluation kept inside a training run is that run's final, not a second run
+    run = synthetic_run(tmp_path / "runs", "matd3", 0, base, 1.0)
+    evaluation_dir(run, "checkpoints", "matd3", "hybrid", {**base, "CBRO": 9.0})
+    assert report.main([str(tmp_path / "runs")]) == 0
+    rows = list(csv.DictReader((tmp_path / "runs" / "table1.csv").open()))
+    assert len(rows) == 1 and rows[0]["seeds"] == "1" and float(rows[0]["CBRO"]) == pytest.approx(9.0)
+
+
 def test_report_errors(tmp_path, capsys):
     assert report.main([str(tmp_path)]) == 2
     assert "no training run" in capsys.readouterr().err
