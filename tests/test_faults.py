@@ -46,7 +46,10 @@ def test_sigkill_keeps_last_checkpoint_and_resume_continues(tmp_path, delay):
     assert resumed.returncode == 0, err[-2000:]
     final = load_checkpoint_file(ckpt)
     assert final["counters"]["frames"] == 3200
-    assert final["counters"]["frames"] >= frames and final["algo"]["critic_steps"] > state["algo"]["critic_steps"]
+    if frames < 3200:  # killed mid-run: the resumed run trained on from the checkpoint
+        assert final["algo"]["critic_steps"] > state["algo"]["critic_steps"]
+    else:  # on a fast machine the run may end before the kill: resuming a finished run adds nothing
+        assert final["algo"]["critic_steps"] == state["algo"]["critic_steps"]
     assert (tmp_path / "metrics.json").exists()
 
 
