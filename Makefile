@@ -9,7 +9,7 @@ CKPT ?=
 JOBS ?= $(shell nproc)
 SWEEP ?= outputs/sweep
 
-.PHONY: help setup train train-paper eval render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
+.PHONY: help setup train train-paper eval diagnose render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -30,6 +30,9 @@ train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradi
 
 eval: $(PY)  ## evaluate CKPT (policy.pt, last.pt or run dir) on 1,000 held-out episodes; ARGS = overrides
 	$(PY) -m formation_rl.evaluate ckpt=$(CKPT) $(ARGS)
+
+diagnose: $(PY)  ## why CKPT's episodes fail: success split into goal / collision parts, first-collision times
+	$(PY) -m formation_rl.diagnose $(CKPT) $(ARGS)
 
 render: $(PY)  ## one held-out episode of CKPT as a GIF and a Figure-10 PNG
 	$(PY) -m formation_rl.visualize ckpt=$(CKPT) $(ARGS)

@@ -26,7 +26,7 @@ from tqdm import tqdm
 
 from formation_rl.cli import one_line_errors
 from formation_rl.envs import EnvConfig, FormationEnv
-from formation_rl.envs.metrics import METRICS, episode_metrics
+from formation_rl.envs.metrics import episode_metrics
 
 EVAL_SEED = 2_000_000_011  # held-out scenarios: training uses small seeds, periodic evaluation 1_000_000_007
 # two-sided 95% Student t quantiles for df = 1..29; the normal 1.96 beyond
@@ -63,16 +63,22 @@ def mean_ci(values: torch.Tensor) -> tuple[float, float]:
 @torch.no_grad()
 def evaluate_policy(policy: Callable[[TensorDictBase], TensorDictBase], env_cfg: EnvConfig, episodes: int,
                     num_envs: int = 1000, seed: int = EVAL_SEED, device="cpu",
-                    progress: bool = True) -> dict[str, torch.Tensor]:
-    """Per-episode SPEC §6 metrics (``{metric: [episodes]}``) of ``policy`` on fresh episodes."""
+                    progress: bool = True,
+                    metrics: Callable[[TensorDictBase, float], dict[str, torch.Tensor]] = episode_metrics,
+                    ) -> dict[str, torch.Tensor]:
+    """Per-episode SPEC §6 metrics (``{metric: [episodes]}``) of ``policy`` on fresh episodes.
+
+    ``metrics(rollout, goal_radius)`` maps each round's ``[copies, max_steps]`` rollout, every copy
+    from a reset, to per-episode values (default: :func:`~formation_rl.envs.metrics.episode_metrics`).
+    """
     copies = min(num_envs, episodes)
     env = FormationEnv(copies, config=env_cfg, device=device, seed=seed)
     rounds = math.ceil(episodes / copies)
-    out: dict[str, list[torch.Tensor]] = {k: [] for k in METRICS}
+    out: dict[str, list[torch.Tensor]] = {}
     for _ in tqdm(range(rounds), desc="evaluate", unit="round", disable=not progress or rounds == 1):
         rollout = env.rollout(env_cfg.max_steps, policy, break_when_any_done=False)
-        for k, v in episode_metrics(rollout, env_cfg.goal_radius).items():
-            out[k].append(v)
+        for k, v in metrics(rollout, env_cfg.goal_radius).items():
+            out.setdefault(k, []).append(v)
     return {k: torch.cat(v)[:episodes] for k, v in out.items()}
 
 

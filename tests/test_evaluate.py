@@ -13,10 +13,11 @@ import yaml
 from test_train import tiny
 from torch.utils.tensorboard import SummaryWriter
 
-from formation_rl import report
+from formation_rl import diagnose, report
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
 from formation_rl.evaluate import evaluate_policy, mean_ci
+from formation_rl.policy import load_policy
 from formation_rl.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -209,3 +210,24 @@ def test_corrupt_or_foreign_checkpoint_is_one_clear_error(tmp_path):
     torch.save({"format": 99, "version": "9.9"}, tmp_path / "policy.pt")
     with pytest.raises(ValueError, match=r"has format 99 \(formation_rl 9.9\); this formation_rl .* reads format 1"):
         load_policy(tmp_path)
+
+
+def test_first_and_last_collision_steps():
+    flags = torch.tensor([[False, True, False, True, False], [False] * 5, [True, False, False, False, False]])
+    assert diagnose.first_step(flags).tolist() == [2, 0, 1]
+    assert diagnose.last_step(flags).tolist() == [4, 0, 1]
+
+
+def test_diagnose_splits_success_and_times_collisions(tmp_path, capsys):
+    assert diagnose.main(["apf", "--episodes", "40", "--out", str(tmp_path)]) == 0
+    b = json.loads((tmp_path / "failures.json").read_text())["controllers"]["apf"]
+    per = evaluate_policy(load_policy("apf").module, EnvConfig(), 40, progress=False, metrics=diagnose.failure_metrics)
+    assert b["success"] == pytest.approx(per["success"].mean().item())
+    assert b["success"] <= min(b["at_goal"], b["no_robot_collision"], b["no_obstacle_collision"])
+    windows = sum(v for k, v in b.items() if k.startswith("first_robot_collision_"))
+    assert windows + b["no_robot_collision"] == pytest.approx(1.0)  # every collided episode falls in one window
+    assert (per["first_robot_collision"] == 0).tolist() == (per["CBRS"] == 0).tolist()
+    assert (per["last_robot_collision"] >= per["first_robot_collision"]).all()
+    assert (tmp_path / "first_collision.png").stat().st_size > 0 and "at the goal" in capsys.readouterr().out
+    assert diagnose.main(["apf", "--episodes", "0"]) == 2
+    assert diagnose.main([str(tmp_path / "missing")]) == 2

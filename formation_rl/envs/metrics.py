@@ -10,7 +10,8 @@ from __future__ import annotations
 import torch
 from tensordict import TensorDictBase
 
-METRICS = ("episode_reward", "leader_reward", "follower_reward", "CBRS", "CBRO", "UDBLT", "RFSE", "success", "length")
+METRICS = ("episode_reward", "leader_reward", "follower_reward", "CBRS", "CBRO", "UDBLT", "RFSE", "success", "at_goal",
+           "no_robot_collision", "no_obstacle_collision", "length")
 # per-step features summed over an episode, in this order
 _FEATURES = ("reward", "leader", "followers", "robot_collision", "obstacle_collision", "any_collision",
              "formation_error", "steps")
@@ -82,6 +83,10 @@ def _finish(sums: torch.Tensor, udblt: torch.Tensor, goal_radius: float) -> dict
         "UDBLT": udblt,  # leader-to-goal distance at the last step (m)
         "RFSE": f["formation_error"] / t,  # mean over steps of sum_pairs |d_ij - d*_ij| (m)
         "success": ((udblt <= goal_radius) & (f["any_collision"] == 0)).double(),
+        # success = the product of these three: which part fails (1 or 0 per episode)
+        "at_goal": (udblt <= goal_radius).double(),  # leader within goal_radius at the last step
+        "no_robot_collision": (f["robot_collision"] == 0).double(),
+        "no_obstacle_collision": (f["obstacle_collision"] == 0).double(),
         "length": t,
     }
 

@@ -45,6 +45,9 @@ def test_three_step_rollout():
     assert m["UDBLT"].tolist() == pytest.approx([0.2, 0.04])
     assert m["RFSE"].tolist() == pytest.approx([0.6, 0.1])
     assert m["success"].tolist() == [0.0, 1.0]
+    assert m["at_goal"].tolist() == [0.0, 1.0]
+    assert m["no_robot_collision"].tolist() == [0.0, 1.0]
+    assert m["no_obstacle_collision"].tolist() == [0.0, 1.0]
     assert m["length"].tolist() == [3.0, 3.0]
     assert summarize(m)["success"] == 0.5
 
@@ -84,3 +87,12 @@ def test_env_rollout_metrics_are_consistent_with_diagnostics():
     by_copy = {k: v.view(4, 2) for k, v in m.items()}  # episodes come by copy, then time
     assert by_copy["CBRO"][:, 0].tolist() == pytest.approx(cbro.tolist(), abs=1e-4)
     assert by_copy["UDBLT"][:, 1].tolist() == pytest.approx(r["next", "goal_distance"][:, -1, 0].tolist(), abs=1e-6)
+
+
+def test_success_splits_into_goal_and_collision_parts():
+    env = FormationEnv(16, seed=3)
+    m = episode_metrics(env.rollout(150, break_when_any_done=False), env.config.goal_radius)
+    assert torch.equal(m["success"], m["at_goal"] * m["no_robot_collision"] * m["no_obstacle_collision"])
+    assert torch.equal(m["no_robot_collision"] == 1, m["CBRS"] == 0)
+    assert torch.equal(m["no_obstacle_collision"] == 1, m["CBRO"] == 0)
+    assert torch.equal(m["at_goal"] == 1, m["UDBLT"] <= env.config.goal_radius)
