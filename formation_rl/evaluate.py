@@ -87,8 +87,9 @@ def summarize_ci(per_episode: dict[str, torch.Tensor]) -> dict[str, dict[str, fl
 
 
 def format_table(summary: dict[str, dict[str, float]], title: str) -> str:
-    rows = [f"{title}", f"{'metric':<16} {'mean':>12} {'95% CI':>12}"]
-    rows += [f"{k:<16} {v['mean']:>12.4f} {'±':>2}{v['ci95']:>10.4f}" for k, v in summary.items() if k != "length"]
+    w = max(len(k) for k in ("metric", *summary))
+    rows = [f"{title}", f"{'metric':<{w}} {'mean':>12} {'95% CI':>12}"]
+    rows += [f"{k:<{w}} {v['mean']:>12.4f} {'±':>2}{v['ci95']:>10.4f}" for k, v in summary.items() if k != "length"]
     return "\n".join(rows)
 
 
