@@ -10,8 +10,6 @@ from __future__ import annotations
 import torch
 from tensordict import TensorDictBase
 
-METRICS = ("episode_reward", "leader_reward", "follower_reward", "CBRS", "CBRO", "UDBLT", "RFSE", "success", "at_goal",
-           "no_robot_collision", "no_obstacle_collision", "length")
 # per-step features summed over an episode, in this order
 _FEATURES = ("reward", "leader", "followers", "robot_collision", "obstacle_collision", "any_collision",
              "formation_error", "steps")
