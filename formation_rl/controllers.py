@@ -117,6 +117,8 @@ class APFController(nn.Module):
         # followers: the positions of every robot, from each follower's own observation
         others = role[..., 1:, :].unflatten(-1, (n - 1, 2))  # [..., N-1, N-1, 2], other robots in index order
         own = p[..., 1:, :]
+        if cfg.relative_positions:  # p_j - p_i back to p_j
+            others = others + own[..., None, :]
         idx = torch.arange(1, n, device=obs.device)
         # all positions as follower i sees them: insert its own position at index i
         full = torch.cat([others, own[..., None, :]], dim=-2)  # [..., N-1, N, 2], own last

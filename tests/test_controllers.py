@@ -29,6 +29,16 @@ def test_actions_bounded_and_each_robot_reads_only_its_own_observation():
         assert moved[j] and not moved[torch.arange(cfg.num_robots) != j].any()
 
 
+def test_apf_acts_the_same_on_relative_positions():
+    """The classical controller reads env.relative_positions and drives the same team either way."""
+    actions = []
+    for rel in (False, True):
+        cfg = EnvConfig(relative_positions=rel)
+        env = FormationEnv(8, config=cfg, seed=3)
+        actions.append(env.rollout(150, classical_policy(cfg).module)["agents", "action"])
+    assert (actions[0] - actions[1]).abs().max() < 1e-2
+
+
 def test_load_policy_apf_maps_observations_to_actions():
     policy = formation_rl.load_policy("apf")
     assert policy.algo == "apf"

@@ -70,6 +70,7 @@ class EnvConfig:
     obstacle_collision_margin: float = 0.1  # rho_o
     sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible
+    relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (choice; False: SPEC §3)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 

@@ -116,8 +116,11 @@ class FormationEnv(EnvBase):
     def _measure(self, pos, vel, goal, centers, radii) -> dict[str, torch.Tensor]:
         """Observation, reward and diagnostics of a world given batch-last, returned batch-first."""
         q = step_quantities(pos, goal, centers, radii, self._geom, self.config)
+        obs = world.observe(pos, vel, q, self._obs_index)  # [B, N, D]
+        if self.config.relative_positions:
+            obs = world.make_relative(obs)
         return {
-            "observation": world.observe(pos, vel, q, self._obs_index),  # [B, N, D]
+            "observation": obs,
             "reward": q["reward"].T.unsqueeze(-1).contiguous(),  # [B, N, 1]
             "positions": pos.permute(2, 1, 0).contiguous(),  # [B, N, 2]
             "velocities": vel.permute(2, 1, 0).contiguous(),

@@ -173,3 +173,14 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     torch.mul(oy, sensed, out=source[OY:S].view_as(oy))
     source[F] = q["in_area"]
     return source.index_select(0, index).T.reshape(b, n, -1)
+
+
+def make_relative(obs: torch.Tensor) -> torch.Tensor:
+    """Followers' role blocks of ``obs`` [B, N, D] as positions relative to their own: p_j - p_i.
+
+    ``EnvConfig.relative_positions`` (a choice beside SPEC §3): the same layout, translation-invariant.
+    """
+    n = obs.shape[-2]
+    own = obs[..., 1:, 0:2]
+    role = obs[..., 1:, 4:4 + 2 * (n - 1)] - own.repeat(*(1,) * (own.dim() - 1), n - 1)
+    return torch.cat([obs[..., :1, :], torch.cat([obs[..., 1:, :4], role, obs[..., 1:, 4 + 2 * (n - 1):]], -1)], -2)

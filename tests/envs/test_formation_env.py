@@ -49,6 +49,22 @@ def test_observation_layout():
     assert o[2].tolist() == pytest.approx([-2.0, 3.0, 0.5, 0.0, 1.0, 1.0, 0.0, 1.2] + [0.0] * 6 + [1.0], abs=1e-6)
 
 
+def test_relative_positions_shift_only_the_followers_view_of_the_others():
+    """env.relative_positions: follower i sees p_j - p_i in the same slots; everything else is SPEC §3."""
+    state = dict(positions=[[[1.0, 1.0], [0.0, 1.2], [-2.0, 3.0]]], velocities=[[[0.1, 0.2], [0.0, -0.3], [0.5, 0.0]]],
+                 goal=[[3.2, 3.1]], obstacle_centers=[[[1.0, 1.75], [-3.0, -1.0]]], obstacle_radii=[[0.5, 0.4]])
+    obs = {}
+    for rel in (False, True):
+        cfg = EnvConfig(num_robots=3, num_obstacles=2, relative_positions=rel)
+        obs[rel] = FormationEnv(1, config=cfg, seed=0).set_world_state(**state)["agents", "observation"][0]
+    spec, rel = obs[False], obs[True]
+    assert rel[1, 4:8].tolist() == pytest.approx([1.0, -0.2, -2.0, 1.8], abs=1e-6)  # leader, robot 2 from robot 1
+    assert rel[2, 4:8].tolist() == pytest.approx([3.0, -2.0, 2.0, -1.8], abs=1e-6)  # leader, robot 1 from robot 2
+    assert torch.equal(rel[0], spec[0])  # the leader's observation is unchanged
+    assert torch.equal(rel[:, :4], spec[:, :4]) and torch.equal(rel[:, 8:], spec[:, 8:])
+    check_env_specs(FormationEnv(4, config=EnvConfig(relative_positions=True), seed=0))
+
+
 def test_partial_reset_only_touches_flagged_copies():
     env = FormationEnv(3, seed=0)
     td = env.reset()
