@@ -144,7 +144,8 @@ def group_key(run: Run, by: str) -> str:
         if not isinstance(node, dict) or part not in node:
             raise ValueError(f"--by {by!r} is invalid: run {run.path} has no config key {by!r}")
         node = node[part]
-    return str(node)
+    # a name stands for itself (per_matd3, hybrid); a number or a flag needs its key (batch_size=256)
+    return node if isinstance(node, str) else f"{by.rsplit('.', 1)[-1]}={node}"
 
 
 def smooth(values: np.ndarray, weight: float) -> np.ndarray:
@@ -174,7 +175,8 @@ def plot_figures(groups: dict[str, list[Run]], out: Path, weight: float) -> list
             ax.set_xlabel("episodes")
             ax.set_ylabel(label or ylabel)
             ax.grid(alpha=0.3)
-            ax.legend(fontsize=8)
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(fontsize=8)
         fig.suptitle(title)
         fig.tight_layout()
         if drawn:

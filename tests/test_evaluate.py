@@ -167,6 +167,13 @@ def test_report_table_from_evaluation_directories(tmp_path):
     assert len(rows) == 1 and rows[0]["seeds"] == "1" and float(rows[0]["CBRO"]) == pytest.approx(9.0)
 
 
+def test_report_names_groups_of_numbers_and_flags_by_their_key():
+    run = report.Run(Path("r"), {"algo": {"name": "matd3", "batch_size": 256}, "env": {"relative_positions": True}})
+    assert report.group_key(run, "algo.name") == "matd3"
+    assert report.group_key(run, "algo.batch_size") == "batch_size=256"
+    assert report.group_key(run, "env.relative_positions") == "relative_positions=True"
+
+
 def test_report_errors(tmp_path, capsys):
     assert report.main([str(tmp_path)]) == 2
     assert "no training run" in capsys.readouterr().err
