@@ -44,6 +44,7 @@ def test_hydra_rejects_misspelt_key_and_wrong_type():
 
 
 BAD = [
+    ({"relative_positions": "yes"}, "env.relative_positions = 'yes'", "true or false"),
     ({"num_robots": 1}, "env.num_robots = 1", "integer >= 2"),
     ({"num_obstacles": -1}, "env.num_obstacles = -1", ">= 0"),
     ({"dt": 0.0}, "env.dt = 0.0", "> 0"),
