@@ -176,11 +176,11 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
 
 
 def make_relative(obs: torch.Tensor) -> torch.Tensor:
-    """Followers' role blocks of ``obs`` [B, N, D] as positions relative to their own: p_j - p_i.
+    """Followers' role blocks of ``obs`` [B, N, D] as positions relative to their own: p_j - p_i, in place.
 
     ``EnvConfig.relative_positions`` (a choice beside SPEC §3): the same layout, translation-invariant.
+    ``obs`` is the fresh tensor :func:`observe` returns.
     """
     n = obs.shape[-2]
-    own = obs[..., 1:, 0:2]
-    role = obs[..., 1:, 4:4 + 2 * (n - 1)] - own.repeat(*(1,) * (own.dim() - 1), n - 1)
-    return torch.cat([obs[..., :1, :], torch.cat([obs[..., 1:, :4], role, obs[..., 1:, 4 + 2 * (n - 1):]], -1)], -2)
+    obs[..., 1:, 4:4 + 2 * (n - 1)].unflatten(-1, (n - 1, 2)).sub_(obs[..., 1:, None, 0:2])
+    return obs
