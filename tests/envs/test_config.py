@@ -21,6 +21,9 @@ def compose_env(*overrides):
 
 def test_yaml_defaults_equal_dataclass_defaults():
     assert EnvConfig.from_dict(compose_env()) == EnvConfig()
+    # every world field is written out in conf/env/default.yaml with its comment (the formation has its own group)
+    written = set(OmegaConf.load(Path(CONF) / "env" / "default.yaml").keys())
+    assert {f.name for f in dataclasses.fields(EnvConfig)} - {"formation"} <= written
 
 
 def test_formation_and_reward_groups():
