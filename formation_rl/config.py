@@ -47,6 +47,19 @@ class AlgoConfig:
     warmup_frames: int = 10_000  # frames collected before the first update (choice)
     warmup_policy: str = "random"  # who acts in them: random (uniform actions) | apf (the classical controller
     #                                with the exploration noise: demonstrations in the buffer) (choice)
+    actor_init: str = "random"  # random (PyTorch's init) | apf: behaviour-clone the classical controller into the
+    #                             actors before training, its demonstrations also put in the buffer (choice)
+    bc_frames: int = 150_000  # actor_init=apf: frames of demonstrations (every other round with bc_noise on the
+    #                           executed action, labelled with the controller's own action)
+    bc_steps: int = 3_000  # actor_init=apf: gradient steps of the cloning fit (MSE, batch_size, bc_lr)
+    bc_noise: float = 0.2  # actor_init=apf: Gaussian noise on the executed action in the noisy rounds
+    bc_dagger_rounds: int = 0  # actor_init=apf: DAgger rounds after the first fit (the clone drives bc_frames / 2
+    #                            frames, the controller labels them, the fit goes on for bc_steps / 2 steps)
+    bc_lr: float = 1e-3  # actor_init=apf: Adam learning rate of the cloning fit
+    bc_weight: float = 0.0  # > 0: the actor loss becomes -Q / mean|Q| + bc_weight * mean((a - apf(o))^2) on every
+    #                         batch (TD3+BC's form, the classical controller as the anchor); 0: the paper's -Q
+    critic_warmup_steps: int = 0  # first gradient steps that train the critics only (targets still follow):
+    #                               the critics learn the initial actors' value before the actors move (choice)
     exploration_sigma: float = 0.3  # Gaussian exploration noise on the collection policy, start (choice)
     exploration_sigma_end: float = 0.05  # ... end (choice)
     exploration_anneal: float = 0.5  # fraction of total_frames over which sigma anneals (choice)
@@ -106,6 +119,12 @@ def validate(cfg: TrainConfig) -> None:
     check(a.action_reg >= 0, "algo.action_reg", a.action_reg, ">= 0")
     check(a.warmup_frames >= 0, "algo.warmup_frames", a.warmup_frames, ">= 0")
     check(a.warmup_policy in ("random", "apf"), "algo.warmup_policy", a.warmup_policy, "random or apf")
+    check(a.actor_init in ("random", "apf"), "algo.actor_init", a.actor_init, "random or apf")
+    for name in ("bc_frames", "bc_steps", "bc_dagger_rounds", "critic_warmup_steps"):
+        check(getattr(a, name) >= 0, f"algo.{name}", getattr(a, name), "an integer >= 0")
+    check(a.bc_noise >= 0, "algo.bc_noise", a.bc_noise, ">= 0")
+    check(a.bc_lr > 0, "algo.bc_lr", a.bc_lr, "> 0")
+    check(a.bc_weight >= 0, "algo.bc_weight", a.bc_weight, ">= 0")
     check(a.exploration_sigma >= a.exploration_sigma_end >= 0, "algo.exploration_sigma", a.exploration_sigma,
           f">= exploration_sigma_end ({a.exploration_sigma_end}) >= 0")
     check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")

@@ -15,7 +15,7 @@ from torch import nn
 
 # sections of one training loop iteration, in the order they run
 SECTIONS = ("setup", "env", "policy", "buffer_extend", "buffer_sample", "update", "priority", "metrics", "logging",
-            "evaluation", "checkpoint")
+            "evaluation", "checkpoint", "behaviour_cloning")
 
 
 class Timings:

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
-from tensordict import TensorDictBase
+from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.collectors import Collector
 from torchrl.data.postprocs import MultiStep
@@ -64,6 +64,29 @@ class _Switch(TensorDictModuleBase):
 
     def forward(self, td: TensorDictBase) -> TensorDictBase:
         return (self.first_policy if self.first else self.then_policy)(td)
+
+
+class _Demonstrator(TensorDictModuleBase):
+    """Acts with ``teacher`` plus ``noise`` (Gaussian, clipped to the box), or with ``actor`` when set, and
+    keeps every observation with the teacher's own, noise-free action: the behaviour-cloning (and DAgger)
+    data of ``algo.actor_init=apf``."""
+
+    def __init__(self, teacher: TensorDictModuleBase):
+        super().__init__()
+        self.in_keys, self.out_keys = teacher.in_keys, teacher.out_keys
+        self.teacher, self.noise, self.actor = teacher, 0.0, None
+        self.observations: list[torch.Tensor] = []  # [copies, N, D] per step
+        self.labels: list[torch.Tensor] = []  # [copies, N, 2] per step
+
+    def forward(self, td: TensorDictBase) -> TensorDictBase:
+        clean = self.teacher(td).get(("agents", "action")).clone()
+        self.observations.append(td.get(("agents", "observation")).clone())
+        self.labels.append(clean)
+        if self.actor is not None:  # another policy acts (DAgger); the teacher only labels
+            self.actor(td)
+        elif self.noise > 0:
+            td.set(("agents", "action"), (clean + self.noise * torch.randn_like(clean)).clamp(-1.0, 1.0))
+        return td
 
 
 def atomic_save(obj, path: Path) -> None:
@@ -130,6 +153,10 @@ class Trainer:
         self.actor = make_actor(n, d, hidden, cfg.model.activation).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation).to(dev)
         self.algo = make_algorithm(self.actor, critic, a)
+        if a.bc_weight > 0:  # the classical controller anchors the actor loss
+            from formation_rl.controllers import APFController
+
+            self.algo.anchor = APFController(cfg.env).to(dev)
         if cfg.cudagraphs:
             self.algo.enable_cudagraphs()
         # exploration noise on the collection policy only (evaluation and targets use self.actor)
@@ -182,7 +209,10 @@ class Trainer:
         bar = tqdm(total=cfg.total_frames, initial=self.frames, unit="frame", unit_scale=True,
                    disable=not cfg.progress, desc=a.name, dynamic_ncols=True)
         if self.frames == 0:
-            self.evaluate()  # the untrained policy: the baseline every curve starts from
+            if a.actor_init == "apf":
+                self.evaluate()  # the untrained actors, then the cloned ones (both at frame 0)
+                self.clone_classical()
+            self.evaluate()  # the untrained (or cloned) policy: the baseline every curve starts from
         credit, start, steps0 = 0, time.perf_counter(), self.algo.critic_steps
         latest: dict[str, float] = {}
         timings, waited_from, policy_seconds = self.timings, time.perf_counter(), self.timings.seconds["policy"]
@@ -232,6 +262,59 @@ class Trainer:
         self.save_checkpoint()
         self.logger.experiment.flush()
         return final
+
+    def clone_classical(self) -> float:
+        """``algo.actor_init=apf``: behaviour cloning of the classical controller into the actors.
+
+        The controller drives the training env copies for ``bc_frames`` frames (every other round with
+        ``bc_noise`` on the executed action, so that the actors also see how it recovers from being
+        pushed off its path); each actor is fitted to its robot's controller action on its own
+        observation (MSE, ``bc_steps`` steps of ``batch_size``, Adam at ``bc_lr``). Then
+        ``bc_dagger_rounds`` rounds of DAgger: the cloned actors drive for ``bc_frames / 2`` frames,
+        every observation they reach is labelled with the controller's action and added to the data,
+        and the fit goes on for ``bc_steps / 2`` steps. The target actors are copied from the result.
+        Every frame driven here (executed actions, rewards) also goes in the replay buffer.
+        Returns the final fit loss.
+        """
+        from formation_rl.controllers import apf_policy
+
+        cfg, a = self.cfg, self.cfg.algo
+        demo = _Demonstrator(apf_policy(cfg.env).to(self.env.device))
+        per_round = cfg.num_envs * cfg.env.max_steps
+        optim = torch.optim.Adam(self.actor.parameters(), lr=a.bc_lr)
+        bar = tqdm(total=a.bc_steps + a.bc_dagger_rounds * (a.bc_steps // 2), desc="behaviour cloning (apf)",
+                   unit="step", disable=not cfg.progress, dynamic_ncols=True)
+        loss, step = torch.zeros(()), 0
+        for phase in range(1 + a.bc_dagger_rounds):
+            frames, steps = (a.bc_frames, a.bc_steps) if phase == 0 else (a.bc_frames // 2, a.bc_steps // 2)
+            demo.actor = None if phase == 0 else self.actor  # DAgger: the clone drives, the controller labels
+            with self.timings("behaviour_cloning"), torch.no_grad():
+                for r in range(max(1, -(-frames // per_round))):
+                    demo.noise = a.bc_noise if phase == 0 and r % 2 == 1 else 0.0
+                    rollout = self.env.rollout(cfg.env.max_steps, demo, break_when_any_done=False)
+                    self.buffer.extend(to_transitions(rollout))
+            obs, labels = torch.cat(demo.observations), torch.cat(demo.labels)
+            with self.timings("behaviour_cloning"):
+                for _ in range(steps):
+                    idx = torch.randint(0, obs.shape[0], (a.batch_size,), device=obs.device)
+                    td = TensorDict({("agents", "observation"): obs[idx]}, [a.batch_size])
+                    loss = (self.actor(td).get(("agents", "action")) - labels[idx]).pow(2).mean()
+                    optim.zero_grad(set_to_none=True)
+                    loss.backward()
+                    optim.step()
+                    if step % 100 == 0:
+                        bar.set_postfix(mse=f"{loss.item():.4f}", data=f"{obs.shape[0]:,}", refresh=False)
+                        self.logger.log_scalar("bc/mse", loss.item(), step=step)
+                    step += 1
+                    bar.update()
+        bar.close()
+        with warnings.catch_warnings():  # SoftUpdate warns that its targets were initialised before: on purpose
+            warnings.simplefilter("ignore", UserWarning)
+            self.algo.target_updater.init_()  # target actors = the cloned actors (target critics = the critics)
+        self.logger.log_scalar("bc/frames", obs.shape[0], step=0)
+        print(f"behaviour cloning of apf: {obs.shape[0]:,} labelled frames ({a.bc_dagger_rounds} DAgger rounds), "
+              f"{step} steps, final MSE {loss.item():.4f}")
+        return loss.item()
 
     def _gradient_step(self) -> dict[str, torch.Tensor]:
         with self.timings("buffer_sample"):

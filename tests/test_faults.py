@@ -111,6 +111,8 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["algo=ppo"], "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3, per_matd3"),
     ("train", ["algo=apf"], "algo.name = 'apf' is invalid for training: apf is the classical controller"),
     ("train", ["algo.warmup_policy=demo"], "algo.warmup_policy = 'demo' is invalid: must be random or apf"),
+    ("train", ["algo.actor_init=bc"], "algo.actor_init = 'bc' is invalid: must be random or apf"),
+    ("train", ["algo.bc_weight=-1"], "algo.bc_weight = -1.0 is invalid: must be >= 0"),
     ("train", ["formation=star"], "formation = 'star' is invalid: must be one of chain, v"),
     ("train", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
     ("train", ["budget=huge"], "budget = 'huge' is invalid: must be one of default, paper"),

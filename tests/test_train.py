@@ -1,5 +1,6 @@
 """The training job: a tiny run end to end, TensorBoard tags, checkpoints, resume, policy loading, CLI."""
 
+import copy
 import json
 import subprocess
 import sys
@@ -222,3 +223,36 @@ def test_warmup_by_the_classical_controller_then_the_actors(tmp_path):
     assert torch.allclose(act[warm], apf[warm], atol=1e-6)
     # the actors act afterwards, and they act otherwise than the controller
     assert not torch.allclose(act[320:], apf[320:], atol=1e-2)
+
+
+def test_actor_init_apf_clones_the_classical_controller(tmp_path):
+    """algo.actor_init=apf: the actors start near the controller's actions, the targets equal them, and
+    the demonstrations (and the DAgger rounds' frames) are in the buffer before the first collected frame."""
+    cfg = tiny("matd3", frames=160)
+    cfg.algo.actor_init, cfg.algo.bc_frames, cfg.algo.bc_steps, cfg.algo.bc_dagger_rounds = "apf", 480, 600, 1
+    cfg.algo.batch_size, cfg.algo.warmup_frames, cfg.algo.critic_warmup_steps = 256, 0, 1000
+    cfg.algo.lr_actor = 3e-3
+    trainer = Trainer(cfg, tmp_path)
+    untrained = copy.deepcopy(trainer.actor)
+    trainer.train()
+    demos = trainer.buffer.storage[:160]  # the first, noise-free round: the controller's own actions
+    assert torch.allclose(demos["agents", "action"], APFController(cfg.env)(demos["agents", "observation"]), atol=1e-6)
+    labelled = trainer.buffer.storage[:800]  # every frame of the cloning, labelled by the controller
+    labels = APFController(cfg.env)(labelled["agents", "observation"])
+
+    def gap(actor):
+        with torch.no_grad():
+            return (actor(labelled.clone())["agents", "action"] - labels).pow(2).mean((0, 2))  # per robot
+
+    cloned, before = gap(trainer.actor), gap(untrained)
+    assert cloned[0] < 0.1 * before[0]  # the leader's law (brake towards the goal) is cloned closely,
+    assert (cloned[1:] < 0.8 * before[1:]).all()  # the followers' switching, saturated one only roughly
+    # 3 rounds of 8 copies x 20 steps by the controller, 2 driven by the clone (DAgger), then the run's frames
+    assert len(trainer.buffer) == 3 * 8 * 20 + 2 * 8 * 20 + 160
+    dagger = trainer.buffer.storage[480:800]
+    assert not torch.allclose(dagger["agents", "action"], APFController(cfg.env)(dagger["agents", "observation"]),
+                              atol=1e-2)  # the clone drove those
+    actor = trainer.algo.loss.actor_network_params.detach()
+    assert (trainer.algo.loss.target_actor_network_params == actor).all()  # targets copied, actors held
+    tags = scalars(tmp_path)
+    assert "bc/mse" in tags and len(tags["eval/success"]) == 3  # untrained, cloned, end

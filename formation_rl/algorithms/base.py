@@ -49,6 +49,7 @@ class Algorithm:
         self.critic_steps = 0
         self.actor_steps = 0
         self.cudagraphs = False  # enable_cudagraphs(): replay the step from CUDA graphs
+        self.anchor: torch.nn.Module | None = None  # obs -> actions the actors are pulled towards (bc_weight)
         self._graphs: dict[bool, object] = {}
 
     # ------------------------------------------------------------------ one gradient step
@@ -57,11 +58,14 @@ class Algorithm:
 
         Writes ``|delta|`` ``[B, N]`` (max over critics) at ``PRIORITY_KEY`` in ``batch``.
         """
-        with_actor = (self.critic_steps + 1) % self.cfg.policy_delay == 0
+        due = (self.critic_steps + 1) % self.cfg.policy_delay == 0
+        with_actor = due and self.critic_steps >= self.cfg.critic_warmup_steps
         if self.cudagraphs:
             out = self._graphed_step(batch, with_actor)
         else:
             out = self._step(batch, with_actor, check=True)
+        if due and not with_actor:  # critic warm-up: the actors wait, the targets follow the critics
+            self.target_updater.step()
         self.critic_steps += 1
         self.actor_steps += with_actor
         batch.set(PRIORITY_KEY, out.pop("priority"))
@@ -163,6 +167,11 @@ class Algorithm:
         with critic_params.to_module(critic_module, preserve_module_state=False):
             q = critic_module.module(obs, torch.tanh(pre))  # [B, N, 1]; gradient only through a_i into Q_i
         actor_loss = -q.mean()
+        if self.anchor is not None and self.cfg.bc_weight > 0:  # TD3+BC: -Q / mean|Q| + w * (a - a_anchor)^2
+            with torch.no_grad():
+                anchor = self.anchor(obs)
+            actor_loss = actor_loss / q.abs().mean().detach().clamp_min(1e-6)
+            actor_loss = actor_loss + self.cfg.bc_weight * (torch.tanh(pre) - anchor).pow(2).mean()
         if self.cfg.action_reg > 0:
             actor_loss = actor_loss + self.cfg.action_reg * pre.pow(2).mean()
         return actor_loss, {"q_actor": q.detach()}

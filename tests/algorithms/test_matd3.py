@@ -82,6 +82,47 @@ def test_actor_and_targets_only_move_on_delayed_steps():
     assert any(not torch.equal(a, b) for a, b in zip(actor0, algo.actor_params, strict=True))
 
 
+def test_critic_warmup_holds_the_actors_while_the_targets_follow_the_critics():
+    algo = matd3(policy_delay=1, critic_warmup_steps=3, tau=0.5)
+    actor0, _ = _actor_and_targets(algo)
+    critic_target0 = algo.loss.target_qvalue_network_params.clone()
+    for _ in range(3):
+        assert "loss_actor" not in algo.update(make_batch())
+    assert all(torch.equal(a, b) for a, b in zip(actor0, algo.actor_params, strict=True))
+    assert algo.actor_steps == 0 and algo.critic_steps == 3
+    assert (critic_target0 != algo.loss.target_qvalue_network_params).any()  # soft updates went on
+    assert "loss_actor" in algo.update(make_batch())  # the fourth step moves the actors
+    assert any(not torch.equal(a, b) for a, b in zip(actor0, algo.actor_params, strict=True))
+
+
+class _Constant(torch.nn.Module):
+    def forward(self, obs):
+        return torch.full((*obs.shape[:-1], 2), 0.5)
+
+
+def test_bc_weight_pulls_the_actors_to_the_anchor_and_zero_leaves_the_paper_loss():
+    batch = make_batch(64)
+    plain = matd3(bc_weight=0.0)
+    plain.anchor = _Constant()  # ignored at bc_weight 0
+    torch.manual_seed(0)
+    loss0 = plain._actor_loss(batch.clone())[0]
+    plain.anchor = None
+    torch.manual_seed(0)
+    torch.testing.assert_close(plain._actor_loss(batch.clone())[0], loss0)
+
+    algo = matd3(bc_weight=100.0, policy_delay=1, lr_actor=1e-2)
+    algo.anchor = _Constant()
+
+    def gap():
+        with torch.no_grad():
+            return (algo.loss.actor_network(batch.clone())["agents", "action"] - 0.5).abs().mean().item()
+
+    before = gap()
+    for _ in range(60):
+        algo.update(batch.clone())
+    assert gap() < 0.2 * before
+
+
 def test_soft_update_moves_targets_by_exactly_tau():
     algo = matd3(policy_delay=1, tau=0.01)
     target_before = algo.loss.target_qvalue_network_params.clone()
