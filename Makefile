@@ -9,7 +9,7 @@ CKPT ?=
 JOBS ?= $(shell nproc)
 SWEEP ?= outputs/sweep
 
-.PHONY: help setup train train-paper eval diagnose render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
+.PHONY: help setup train train-paper train-fast eval diagnose render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -27,6 +27,9 @@ train: $(PY)  ## train ALGO (maddpg | matd3 | per_matd3) on the short default bu
 
 train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradient steps)
 	$(PY) -m formation_rl.train algo=$(ALGO) budget=paper $(ARGS)
+
+train-fast: $(PY)  ## our quickest recipe (~15 min): the classical controller cloned, then PER-MATD3 anchored to it
+	$(PY) -m formation_rl.train algo=$(ALGO) budget=fast $(ARGS)
 
 eval: $(PY)  ## evaluate CKPT (policy.pt, last.pt or run dir) on 1,000 held-out episodes; ARGS = overrides
 	$(PY) -m formation_rl.evaluate ckpt=$(CKPT) $(ARGS)

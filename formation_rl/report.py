@@ -103,8 +103,10 @@ def load_run(path: Path) -> Run:
     config = yaml.safe_load((path / ".hydra" / "config.yaml").read_text())
     run = Run(path, config)
     elapsed = 0.0  # training seconds before this events file (a resumed run writes one file per session)
-    evals: dict[float, tuple[float, dict[str, float]]] = {}
-    for events in sorted((path / "tb").glob("events*")):
+    # one evaluation per (frames, events file, repeat): a run may evaluate twice at one frame count
+    # (actor_init=apf: the untrained actors, then the clone), a resumed session may redo one
+    evals: dict[tuple[float, int, int], tuple[float, dict[str, float]]] = {}
+    for file_index, events in enumerate(sorted((path / "tb").glob("events*"))):
         ea = EventAccumulator(str(events), size_guidance={"scalars": 0})
         ea.Reload()
         tags = ea.Tags()["scalars"]
@@ -113,8 +115,11 @@ def load_run(path: Path) -> Run:
             continue
         start = min(walls)
         for tag in (t for t in tags if t.startswith("eval/")):
+            repeats: dict[int, int] = {}
             for e in ea.Scalars(tag):
-                seconds, metrics = evals.setdefault(float(e.step), (elapsed + e.wall_time - start, {}))
+                k = repeats[e.step] = repeats.get(e.step, -1) + 1
+                key = (float(e.step), file_index, k)
+                seconds, metrics = evals.setdefault(key, (elapsed + e.wall_time - start, {}))
                 metrics[tag[len("eval/"):]] = e.value
         elapsed += max(walls) - start
         episodes = _series(ea, "perf/episodes") if "perf/episodes" in tags else None
@@ -125,7 +130,7 @@ def load_run(path: Path) -> Run:
                 x0, v0 = run.scalars[tag]
                 x, values = np.concatenate([x0, x]), np.concatenate([v0, values])
             run.scalars[tag] = (x, values)
-    run.evals = [(frames, seconds, metrics) for frames, (seconds, metrics) in sorted(evals.items())]
+    run.evals = [(key[0], seconds, metrics) for key, (seconds, metrics) in sorted(evals.items())]
     for candidate in (path / "checkpoints" / "metrics.json", path / "metrics.json"):
         if candidate.is_file():
             run.final = {k: v for k, v in json.loads(candidate.read_text()).items() if isinstance(v, (int, float))}

@@ -284,7 +284,7 @@ class Trainer:
         optim = torch.optim.Adam(self.actor.parameters(), lr=a.bc_lr)
         bar = tqdm(total=a.bc_steps + a.bc_dagger_rounds * (a.bc_steps // 2), desc="behaviour cloning (apf)",
                    unit="step", disable=not cfg.progress, dynamic_ncols=True)
-        loss, step = torch.zeros(()), 0
+        loss, per_robot, step = torch.zeros(()), torch.zeros(()), 0
         for phase in range(1 + a.bc_dagger_rounds):
             frames, steps = (a.bc_frames, a.bc_steps) if phase == 0 else (a.bc_frames // 2, a.bc_steps // 2)
             demo.actor = None if phase == 0 else self.actor  # DAgger: the clone drives, the controller labels
@@ -298,7 +298,8 @@ class Trainer:
                 for _ in range(steps):
                     idx = torch.randint(0, obs.shape[0], (a.batch_size,), device=obs.device)
                     td = TensorDict({("agents", "observation"): obs[idx]}, [a.batch_size])
-                    loss = (self.actor(td).get(("agents", "action")) - labels[idx]).pow(2).mean()
+                    per_robot = (self.actor(td).get(("agents", "action")) - labels[idx]).pow(2).mean((0, 2))
+                    loss = per_robot.mean()
                     optim.zero_grad(set_to_none=True)
                     loss.backward()
                     optim.step()
@@ -312,8 +313,9 @@ class Trainer:
             warnings.simplefilter("ignore", UserWarning)
             self.algo.target_updater.init_()  # target actors = the cloned actors (target critics = the critics)
         self.logger.log_scalar("bc/frames", obs.shape[0], step=0)
+        per = ", ".join(f"{v:.4f}" for v in per_robot.tolist()) if step else "-"
         print(f"behaviour cloning of apf: {obs.shape[0]:,} labelled frames ({a.bc_dagger_rounds} DAgger rounds), "
-              f"{step} steps, final MSE {loss.item():.4f}")
+              f"{step} steps, final MSE {loss.item():.4f} (per robot, leader first: {per})")
         return loss.item()
 
     def _gradient_step(self) -> dict[str, torch.Tensor]:

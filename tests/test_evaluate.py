@@ -134,6 +134,20 @@ def test_report_time_to_quality(tmp_path):
     assert (tmp_path / "time_to_quality.png").stat().st_size > 5_000
 
 
+def test_report_keeps_two_evaluations_at_one_frame_count(tmp_path):
+    """actor_init=apf evaluates at frame 0 twice (untrained, then cloned): each keeps its own time."""
+    run = synthetic_run(tmp_path, "per_matd3", 0, {"success": 0.2}, 1.0)
+    w = SummaryWriter(str(run / "tb"), filename_suffix=".eval")
+    for frames, wall, success in ((0, 1000.0, 0.0), (0, 1240.0, 0.21), (1000, 1300.0, 0.25)):
+        for tag, v in (("UDBLT", 0.05), ("success", success), ("CBRO", 1.0), ("RFSE", 3.0)):
+            w.add_scalar(f"eval/{tag}", v, frames, walltime=wall)
+    w.close()
+    loaded = report.load_run(run)
+    assert [(f, round(t), round(m["success"], 2)) for f, t, m in loaded.evals] == [(0, 0, 0.0), (0, 240, 0.21),
+                                                                                (1000, 300, 0.25)]
+    assert report.time_to_quality(loaded)["success >= 10%"] == (0, pytest.approx(240.0, abs=0.1))
+
+
 def evaluation_dir(root: Path, name: str, algo: str, variant: str, final: dict) -> Path:
     """What ``make eval ... ARGS="out=DIR"`` leaves: metrics.json recording what it evaluated."""
     out = root / name
