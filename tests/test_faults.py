@@ -116,7 +116,7 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["formation=star"], "formation = 'star' is invalid: must be one of chain, v"),
     ("train", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
     ("train", ["budget=huge"], "budget = 'huge' is invalid: must be one of default, fast, paper"),
-    ("train", ["algo.lr_actr=0.1"], "algo.lr_actr: unknown key; allowed here: action_reg, alpha"),
+    ("train", ["algo.lr_actr=0.1"], "algo.lr_actr: unknown key; allowed here: action_reg, actor_init, alpha"),
     ("train", ["num_envs=abc"], "num_envs = 'abc' is invalid: Value 'abc' of type 'str' could not be converted"),
     ("train", ["env.num_robots=1"], "env.num_robots = 1 is invalid: must be an integer >= 2"),
     ("train", ["num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
