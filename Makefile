@@ -9,7 +9,7 @@ CKPT ?=
 JOBS ?= $(shell nproc)
 SWEEP ?= outputs/sweep
 
-.PHONY: help setup train train-paper train-fast eval diagnose render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
+.PHONY: help setup train train-paper train-fast eval diagnose ceiling render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -36,6 +36,9 @@ eval: $(PY)  ## evaluate CKPT (policy.pt, last.pt or run dir) on 1,000 held-out 
 
 diagnose: $(PY)  ## why CKPT's episodes fail: success split into goal / collision parts, first-collision times
 	$(PY) -m formation_rl.diagnose $(CKPT) $(ARGS)
+
+ceiling: $(PY)  ## what the 0.2 m obstacle sensing range allows a reactive team: apf gains searched per range (~15 min)
+	$(PY) -m formation_rl.ceiling $(ARGS)
 
 render: $(PY)  ## one held-out episode of CKPT as a GIF and a Figure-10 PNG
 	$(PY) -m formation_rl.visualize ckpt=$(CKPT) $(ARGS)

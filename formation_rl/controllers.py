@@ -17,8 +17,11 @@ comparison is fair, decentralized execution included):
   followers who keep clear of it.
 
 The desired velocity becomes a force through a one-step velocity tracking law, clipped to the
-action box. All gains are constructor arguments, chosen by hand on the training scenarios (seed 0),
-not on the held-out evaluation set.
+action box; a robot closing on a sensed obstacle faster than ``obstacle_brake`` brakes instead with
+the action box's corner on the outward side (up to 2.8 N along the normal against 2 N axis-aligned:
+with a 0.2 m sensing range and a 0.1 m collision margin, the braking distance decides most
+obstacle contacts). All gains are constructor arguments, chosen on the training scenarios (a
+random search over 80 gain sets on seed 0, confirmed on seed 1), not on the held-out evaluation set.
 """
 
 from __future__ import annotations
@@ -47,13 +50,15 @@ class APFController(nn.Module):
     """``forward(obs [..., N, D]) -> actions [..., N, 2]`` in [-1, 1] for the world ``cfg`` describes."""
 
     def __init__(self, cfg: EnvConfig, *, cruise: float = 0.85, area_cruise: float = 0.65, brake: float = 1.6,
-                 follow_gain: float = 2.5, robot_clearance: float = 0.65, robot_push: float = 2.0,
-                 obstacle_push: float = 0.3, slide: float = 0.6, area_margin: float = 0.0):
+                 follow_gain: float = 1.5, robot_clearance: float = 0.65, robot_push: float = 4.0,
+                 obstacle_push: float = 0.2, slide: float = 0.6, area_margin: float = 0.2,
+                 obstacle_brake: float | None = 0.2):
         super().__init__()
         self.cfg = cfg
         self.cruise, self.area_cruise, self.brake = cruise, area_cruise, brake
         self.follow_gain, self.robot_clearance, self.robot_push = follow_gain, robot_clearance, robot_push
         self.obstacle_push, self.slide, self.area_margin = obstacle_push, slide, area_margin
+        self.obstacle_brake = obstacle_brake
         n = cfg.num_robots
         self.register_buffer("v_slots", slots(cfg.formation, n).float(), persistent=False)  # [N, 2]
         area = cfg.area_formation
@@ -153,7 +158,24 @@ class APFController(nn.Module):
 
         v_des = _limit(torch.cat([v_lead[..., None, :], v_fol], dim=-2), cfg.max_speed)
         force = (v_des - v) * (cfg.mass / cfg.dt)  # reach v_des in one step if the force allows
-        return (force / cfg.max_force).clamp(-1.0, 1.0)
+        action = (force / cfg.max_force).clamp(-1.0, 1.0)
+        if self.obstacle_brake is not None:
+            action = self._brake(action, v, obst)
+        return action
+
+    def _brake(self, action: torch.Tensor, v: torch.Tensor, obst: torch.Tensor) -> torch.Tensor:
+        """A robot closing on a sensed obstacle faster than ``obstacle_brake`` (m/s, along the line to its
+        centre) brakes as hard as the action box allows: the corner of the box on the outward side, whose
+        force along the outward normal is 2-2.8 N against the 2 N of any axis-aligned action."""
+        rel, sensed = obst[..., :2], obst[..., 2:3] > 0.5  # [..., N, M, 2], [..., N, M, 1]
+        out_dir, _ = _unit(rel)
+        closing = -(v[..., None, :] * out_dir).sum(-1, keepdim=True)  # [..., N, M, 1], > 0: approaching
+        closing = torch.where(sensed, closing, torch.full_like(closing, -1.0))
+        worst, j = closing.max(-2)  # [..., N, 1]
+        normal = torch.gather(out_dir, -2, j[..., None].expand(*j.shape, 2)).squeeze(-2)  # [..., N, 2]
+        brake = worst > self.obstacle_brake
+        corner = torch.where(normal >= 0, 1.0, -1.0)
+        return torch.where(brake, corner, action)
 
 
 def apf_policy(cfg: EnvConfig, **gains) -> TensorDictModule:

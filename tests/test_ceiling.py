@@ -1,0 +1,64 @@
+"""formation_rl.ceiling: the success ceiling of the classical controller by sensing range."""
+
+import json
+
+import pytest
+import torch
+
+from formation_rl import ceiling
+from formation_rl.envs import EnvConfig
+from formation_rl.evaluate import evaluate_policy
+from formation_rl.policy import classical_policy
+
+
+def test_leader_share_bounds_team_success_per_episode():
+    """success => leader at goal without obstacle contact => leader at goal; a leader contact is a team contact."""
+    cfg = EnvConfig()
+    per = evaluate_policy(classical_policy(cfg).module, cfg, 200, 200, seed=5, progress=False,
+                          metrics=ceiling.team_metrics)
+    touched = per["leader_obstacle_gap"] - cfg.robot_radius < cfg.obstacle_collision_margin
+    at_goal = per["UDBLT"] <= cfg.goal_radius
+    leader_ok = at_goal & ~touched
+    success = per["success"].bool()
+    assert not (success & ~leader_ok).any() and not (touched & (per["CBRO"] == 0)).any()
+    assert touched.any() and leader_ok.any()  # both kinds occur at the SPEC's 0.2 m sensing
+
+
+def test_ceiling_writes_table_json_and_figure(tmp_path):
+    ceiling.main(["--ranges", "0.2", "0.4", "--trials", "2", "--episodes", "20", "--held-out", "20",
+                  "--out", str(tmp_path)])
+    rows = json.loads((tmp_path / "ceiling.json").read_text())["rows"]
+    assert [r["sensing_range"] for r in rows] == [0.2, 0.4]
+    for r in rows:
+        h = r["held_out"]
+        assert 0 <= h["success"] <= h["leader_ok"] <= h["at_goal"] <= 1
+    assert (tmp_path / "ceiling.png").stat().st_size > 0
+    assert (tmp_path / "ceiling.md").read_text().count("\n") == 4
+
+
+@pytest.mark.parametrize("args, field", [(["--trials", "0"], "--trials"), (["--ranges", "0.2", "-1"], "--ranges")])
+def test_ceiling_bad_input_is_one_line(args, field, tmp_path, capsys):
+    with pytest.raises(SystemExit) as err:
+        ceiling.main([*args, "--out", str(tmp_path / "x")])
+    assert field in str(err.value) and "\n" not in str(err.value)
+    assert not (tmp_path / "x").exists()
+
+
+def test_controller_brakes_with_the_box_corner_when_closing_on_an_obstacle():
+    """A robot sensing an obstacle it closes on faster than obstacle_brake gets the full outward corner action."""
+    cfg = EnvConfig()
+    from formation_rl.controllers import APFController
+
+    ctrl = APFController(cfg)
+    n, m = cfg.num_robots, cfg.num_obstacles
+    obs = torch.zeros(1, n, cfg.obs_dim)
+    obs[0, 0, 0:2] = torch.tensor([0.0, 0.0])
+    obs[0, 0, 2:4] = torch.tensor([0.6, 0.3])  # moving towards +x, +y
+    obs[0, 0, 4:6] = torch.tensor([-3.0, -3.0])  # p - p_g: goal ahead
+    first = 4 + 2 * (n - 1)
+    obs[0, 0, first:first + 3] = torch.tensor([-0.7, -0.2, 1.0])  # p - c: obstacle ahead, sensed
+    assert torch.equal(ctrl(obs)[0, 0], torch.tensor([-1.0, -1.0]))
+    slow = obs.clone()
+    slow[0, 0, 2:4] = torch.tensor([0.1, 0.0])  # closing at < 0.2 m/s: the usual field, not the corner
+    assert not torch.equal(ctrl(slow)[0, 0], torch.tensor([-1.0, -1.0]))
+    assert not torch.equal(APFController(cfg, obstacle_brake=None)(obs)[0, 0], torch.tensor([-1.0, -1.0]))
