@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import random
 import sys
 from pathlib import Path
@@ -40,6 +41,48 @@ SPACE = {
     "obstacle_brake": (0.1, 0.2, 0.3),
 }
 REPORTED = ("success", "leader_ok", "at_goal", "no_robot_collision", "no_obstacle_collision", "CBRO", "UDBLT", "RFSE")
+
+
+def braking_limit(cfg: EnvConfig, corner: bool) -> float:
+    """The largest closing speed (m/s, to 0.01) at which a robot that first senses an obstacle can
+    always stop short of contact: it comes into view at a gap in ``(rho_d - v dt, rho_d]`` and must
+    keep the gap >= rho_o while shedding ``max_force / mass * dt`` of speed per step (``sqrt(2)``
+    times that with the action box's corner on a diagonal normal), moving after each speed update
+    (semi-implicit Euler, SPEC §1)."""
+    shed = cfg.max_force / cfg.mass * cfg.dt * (math.sqrt(2.0) if corner else 1.0)
+    room = cfg.sensing_range - cfg.obstacle_collision_margin
+    best = 0.0
+    for k in range(1, 1 + round(cfg.max_speed * 100)):
+        v, travel, speed = k / 100, 0.0, k / 100
+        while speed > 0:
+            speed = max(0.0, speed - shed)
+            travel += speed * cfg.dt
+        if travel <= room - v * cfg.dt:
+            best = v
+    return best
+
+
+def safe_path_time(cfg: EnvConfig, band_speed: float) -> float:
+    """Seconds from the centre of the start square to the centre of the goal square if the leader flies
+    at v_max except where an obstacle may be met (the obstacle area grown by the largest contact
+    distance, ``r_max + r + rho_o``), which it crosses at ``band_speed``: the faster of crossing that
+    region (best entry and exit points on a 2.5 cm grid) and going round it along the arena's east
+    wall. Acceleration from rest and braking at the goal are left out (they only add time)."""
+    reach = cfg.obstacle_radius_max + cfg.robot_radius + cfg.obstacle_collision_margin
+    lo, hi = cfg.obstacle_area_y[0] - reach, cfg.obstacle_area_y[1] + reach
+    east = cfg.obstacle_area_x[1] + reach  # the region's east edge
+    wall = cfg.arena_half_size - cfg.robot_radius
+    s = (cfg.start_low + cfg.start_high) / 2
+    g = (cfg.goal_low + cfg.goal_high) / 2
+    v = cfg.max_speed
+    grid = [s + 0.025 * i for i in range(round((wall - s) / 0.025) + 1)]
+    through = min(math.hypot(x1 - s, lo - s) / v + math.hypot(x2 - x1, hi - lo) / band_speed
+                  + math.hypot(g - x2, g - hi) / v for x1 in grid for x2 in grid if x2 >= x1)
+    if wall > east:  # a strip along the east wall that no obstacle reaches
+        x = (east + wall) / 2
+        around = (math.hypot(x - s, lo - s) + (hi - lo) + math.hypot(g - x, g - hi)) / v
+        through = min(through, around)
+    return through
 
 
 def team_metrics(rollout: TensorDictBase, goal_radius: float) -> dict[str, torch.Tensor]:
@@ -93,7 +136,8 @@ def plot(rows: list[dict], out: Path) -> Path:
 
     ranges = [r["sensing_range"] for r in rows]
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
-    for src, key, label in (("held_out_leader", "leader_ok", "leader at goal, no obstacle contact"),
+    leader_label = "leader at goal, no obstacle contact (gains chosen for it)"
+    for src, key, label in (("held_out_leader", "leader_ok", leader_label),
                             ("held_out", "success", "team success (SPEC §6)"),
                             ("held_out", "no_obstacle_collision", "no obstacle contact (team)")):
         y = [100 * r[src][key] for r in rows]
@@ -130,6 +174,17 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(f"error: --ranges = {bad[0]} is invalid: a sensing range must be > 0 m")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    spec = EnvConfig()
+    physics = {"braking_limit_axis": braking_limit(spec, corner=False),
+               "braking_limit_corner": braking_limit(spec, corner=True),
+               "free_path_time": safe_path_time(spec, spec.max_speed)}
+    for key in ("axis", "corner"):
+        physics[f"safe_path_time_{key}"] = safe_path_time(spec, physics[f"braking_limit_{key}"])
+    print(f"SPEC world: an obstacle first sensed while closing faster than {physics['braking_limit_axis']:.2f} m/s "
+          f"({physics['braking_limit_corner']:.2f} m/s braking with the corner on a diagonal) may not be avoided; "
+          f"flying where obstacles may be at those speeds, start to goal takes {physics['safe_path_time_axis']:.1f} s "
+          f"({physics['safe_path_time_corner']:.1f} s) on the mean scenario, against {physics['free_path_time']:.1f} s "
+          f"at v_max and an episode of {spec.max_steps * spec.dt:.0f} s", flush=True)
     torch.set_num_threads(1)
     rng = random.Random(0)
     rows = []
@@ -149,7 +204,8 @@ def main(argv: list[str] | None = None) -> None:
               f"leader alone at best {100 * leader['leader_ok']:.1f}% with {leader_gains or 'the default gains'}",
               flush=True)
     (out / "ceiling.json").write_text(json.dumps({"trials": args.trials, "episodes": args.episodes,
-                                                  "held_out": args.held_out, "rows": rows}, indent=2))
+                                                  "held_out": args.held_out, "physics": physics, "rows": rows},
+                                                 indent=2))
     lines = ["| sensing range (m) | success | leader at goal, no obstacle contact | leader at goal | "
              "no obstacle contact | no robot contact | CBRO (%) | UDBLT (m) | RFSE (m) | leader at goal, no obstacle "
              "contact, gains chosen for it |",

@@ -62,3 +62,16 @@ def test_controller_brakes_with_the_box_corner_when_closing_on_an_obstacle():
     slow[0, 0, 2:4] = torch.tensor([0.1, 0.0])  # closing at < 0.2 m/s: the usual field, not the corner
     assert not torch.equal(ctrl(slow)[0, 0], torch.tensor([-1.0, -1.0]))
     assert not torch.equal(APFController(cfg, obstacle_brake=None)(obs)[0, 0], torch.tensor([-1.0, -1.0]))
+
+
+def test_braking_limit_and_safe_path_time_follow_the_world():
+    """The physics behind the ceiling: more sensing range, more speed that can be braked; a slower
+    crossing of where obstacles may be, a longer path; at v_max the straight line."""
+    spec = EnvConfig()
+    axis, corner = ceiling.braking_limit(spec, corner=False), ceiling.braking_limit(spec, corner=True)
+    assert 0 < axis < corner < spec.max_speed
+    assert ceiling.braking_limit(EnvConfig(sensing_range=0.3), corner=False) > axis
+    free = ceiling.safe_path_time(spec, spec.max_speed)
+    straight = ((spec.goal_low + spec.goal_high) / 2 - (spec.start_low + spec.start_high) / 2) * 2 ** 0.5
+    assert abs(free - straight / spec.max_speed) < 0.01
+    assert free < ceiling.safe_path_time(spec, corner) < ceiling.safe_path_time(spec, axis)

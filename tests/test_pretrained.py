@@ -1,4 +1,5 @@
-"""The shipped policy (pretrained/per_matd3.pt): loads without arguments and keeps what docs/RESULTS.md claims."""
+"""The shipped policies (pretrained/per_matd3.pt, per_matd3_fast.pt): load without arguments and keep what
+docs/RESULTS.md claims."""
 
 from pathlib import Path
 
@@ -20,3 +21,16 @@ def test_pretrained_policy_loads_and_keeps_its_success_on_50_held_out_episodes()
     per = evaluate_policy(policy.module, policy.env_config, 50, 50, progress=False)
     assert abs(per["success"].mean().item() - CLAIMED_SUCCESS) <= TOLERANCE
     assert per["CBRO"].mean() < 2.37  # the paper's PER-MATD3 row, which it beats on obstacle collisions
+
+
+FAST_CLAIMED_SUCCESS = 0.385  # docs/RESULTS.md, `make train-fast` (fast_bc2_seed0): 1,000 held-out episodes
+FAST_TOLERANCE = 0.14  # 50 episodes: the binomial standard deviation at 38.5% is 0.069
+
+
+def test_fast_policy_loads_with_its_world_and_keeps_its_success_on_50_held_out_episodes():
+    """pretrained/per_matd3_fast.pt reads relative positions: its config says so and evaluation uses it."""
+    policy = formation_rl.load_policy(ROOT / "pretrained" / "per_matd3_fast.pt")
+    assert policy.algo == "per_matd3" and policy.env_config.relative_positions
+    per = evaluate_policy(policy.module, policy.env_config, 50, 50, progress=False)
+    assert abs(per["success"].mean().item() - FAST_CLAIMED_SUCCESS) <= FAST_TOLERANCE
+    assert per["CBRO"].mean() < 2.37
