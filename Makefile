@@ -28,7 +28,7 @@ train: $(PY)  ## train ALGO (maddpg | matd3 | per_matd3) on the short default bu
 train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradient steps)
 	$(PY) -m formation_rl.train algo=$(ALGO) budget=paper $(ARGS)
 
-train-fast: $(PY)  ## our quickest recipe (~18 min on one thread): the classical controller cloned, then PER-MATD3 anchored to it
+train-fast: $(PY)  ## our quickest recipe (~10 min): actors correcting the classical controller, PER-MATD3 anchored to it
 	$(PY) -m formation_rl.train algo=$(ALGO) budget=fast $(ARGS)
 
 eval: $(PY)  ## evaluate CKPT (policy.pt, last.pt or run dir) on 1,000 held-out episodes; ARGS = overrides

@@ -19,6 +19,9 @@ ALGORITHMS = ("maddpg", "matd3", "per_matd3")
 class ModelConfig:
     hidden: list[int] = field(default_factory=lambda: [128, 128])  # actor and critic hidden layers (paper)
     activation: str = "relu"  # (paper)
+    residual: str = "none"  # none: the paper's actors | apf: each actor outputs a correction to the classical
+    # controller, clip(apf(o) + residual_scale * tanh(mu(o)), -1, 1), starting at zero (ours, not the paper's)
+    residual_scale: float = 0.5  # model.residual=apf: the largest correction per action component
 
 
 @dataclass
@@ -130,6 +133,10 @@ def validate(cfg: TrainConfig) -> None:
     check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")
     check(len(cfg.model.hidden) >= 1 and all(h >= 1 for h in cfg.model.hidden), "model.hidden", cfg.model.hidden,
           "a non-empty list of positive layer sizes")
+    check(cfg.model.residual in ("none", "apf"), "model.residual", cfg.model.residual, "none or apf")
+    check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
+    check(cfg.model.residual == "none" or a.actor_init == "random", "algo.actor_init", a.actor_init,
+          "random with model.residual=apf (the residual actors start as the controller already)")
     check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
     check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")
     check(cfg.steps_per_batch >= 1, "steps_per_batch", cfg.steps_per_batch, "an integer >= 1")

@@ -88,6 +88,9 @@ def load_policy(path: str | Path, device: str | torch.device = "cpu") -> Policy:
         raise ValueError(f"checkpoint {p} holds no actor: pass a policy.pt or a run directory")
     env_cfg = EnvConfig.from_dict(state["env"])
     model = ModelConfig(**state["model"])
-    actor = make_actor(env_cfg.num_robots, env_cfg.obs_dim, tuple(model.hidden), model.activation)
+    from formation_rl.trainer import _residual_base
+
+    actor = make_actor(env_cfg.num_robots, env_cfg.obs_dim, tuple(model.hidden), model.activation,
+                       base=_residual_base(model, env_cfg), residual_scale=model.residual_scale)
     actor.load_state_dict(state["actor"])
     return Policy(actor.to(device).eval(), env_cfg, state["algo"])

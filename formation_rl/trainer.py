@@ -19,6 +19,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import TensorDictModuleBase, TensorDictSequential
+from torch import nn
 from torchrl.collectors import Collector
 from torchrl.data.postprocs import MultiStep
 from torchrl.envs.utils import ExplorationType, set_exploration_type
@@ -28,7 +29,7 @@ from tqdm import tqdm
 
 import formation_rl
 from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, NonFiniteError, make_algorithm
-from formation_rl.config import TrainConfig, validate
+from formation_rl.config import ModelConfig, TrainConfig, validate
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
 from formation_rl.models import make_actor, make_critic
@@ -134,6 +135,15 @@ def buffer_dump_to_load(directory: Path) -> Path | None:
     return None
 
 
+def _residual_base(model: ModelConfig, env_cfg: EnvConfig) -> nn.Module | None:
+    """The controller the actors correct (``model.residual``), or None for the paper's actors."""
+    if model.residual == "apf":
+        from formation_rl.controllers import APFController
+
+        return APFController(env_cfg)
+    return None
+
+
 class Trainer:
     def __init__(self, cfg: TrainConfig | DictConfig | dict, run_dir: str | Path):
         cfg = to_train_config(cfg)
@@ -150,7 +160,8 @@ class Trainer:
                                 compile_physics=cfg.compile_env)
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
-        self.actor = make_actor(n, d, hidden, cfg.model.activation).to(dev)
+        self.actor = make_actor(n, d, hidden, cfg.model.activation, base=_residual_base(cfg.model, cfg.env),
+                                residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation).to(dev)
         self.algo = make_algorithm(self.actor, critic, a)
         if a.bc_weight > 0:  # the classical controller anchors the actor loss

@@ -3,7 +3,6 @@
 import json
 
 import pytest
-import torch
 
 from formation_rl import ceiling
 from formation_rl.envs import EnvConfig
@@ -42,26 +41,6 @@ def test_ceiling_bad_input_is_one_line(args, field, tmp_path, capsys):
         ceiling.main([*args, "--out", str(tmp_path / "x")])
     assert field in str(err.value) and "\n" not in str(err.value)
     assert not (tmp_path / "x").exists()
-
-
-def test_controller_brakes_with_the_box_corner_when_closing_on_an_obstacle():
-    """A robot sensing an obstacle it closes on faster than obstacle_brake gets the full outward corner action."""
-    cfg = EnvConfig()
-    from formation_rl.controllers import APFController
-
-    ctrl = APFController(cfg)
-    n, m = cfg.num_robots, cfg.num_obstacles
-    obs = torch.zeros(1, n, cfg.obs_dim)
-    obs[0, 0, 0:2] = torch.tensor([0.0, 0.0])
-    obs[0, 0, 2:4] = torch.tensor([0.6, 0.3])  # moving towards +x, +y
-    obs[0, 0, 4:6] = torch.tensor([-3.0, -3.0])  # p - p_g: goal ahead
-    first = 4 + 2 * (n - 1)
-    obs[0, 0, first:first + 3] = torch.tensor([-0.7, -0.2, 1.0])  # p - c: obstacle ahead, sensed
-    assert torch.equal(ctrl(obs)[0, 0], torch.tensor([-1.0, -1.0]))
-    slow = obs.clone()
-    slow[0, 0, 2:4] = torch.tensor([0.1, 0.0])  # closing at < 0.2 m/s: the usual field, not the corner
-    assert not torch.equal(ctrl(slow)[0, 0], torch.tensor([-1.0, -1.0]))
-    assert not torch.equal(APFController(cfg, obstacle_brake=None)(obs)[0, 0], torch.tensor([-1.0, -1.0]))
 
 
 def test_braking_limit_and_safe_path_time_follow_the_world():

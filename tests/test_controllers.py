@@ -52,8 +52,8 @@ def test_apf_reaches_the_goal_and_succeeds_on_held_out_episodes():
     cfg = EnvConfig()
     per = evaluate_policy(classical_policy(cfg).module, cfg, 200, 200, progress=False)
     assert per["UDBLT"].median() <= cfg.goal_radius  # the leader stops at the goal in most episodes
-    assert per["success"].mean() >= 0.3
-    assert per["CBRO"].mean() <= 3.0
+    assert per["success"].mean() >= 0.5  # 59.6% on the 1,000 (58.5% on these 200); 41.9% before the braking
+    assert per["CBRO"].mean() <= 1.2  # 0.56% on the 1,000, 1.31% before the braking
 
 
 def test_apf_adapts_to_other_worlds():
@@ -79,3 +79,21 @@ def test_apf_with_the_fixed_reward_ignores_the_area_flag():
     flipped[..., -1] = 1.0 - flipped[..., -1]
     # the leader slows inside the area by its own position, not the flag: nothing changes
     assert torch.equal(ctrl(obs), ctrl(flipped))
+
+
+def test_controller_brakes_with_the_box_corner_when_closing_on_an_obstacle():
+    """A robot sensing an obstacle it closes on faster than obstacle_brake gets the full outward corner action."""
+    cfg = EnvConfig()
+    ctrl = APFController(cfg)
+    n = cfg.num_robots
+    obs = torch.zeros(1, n, cfg.obs_dim)
+    obs[0, 0, 0:2] = torch.tensor([0.0, 0.0])
+    obs[0, 0, 2:4] = torch.tensor([0.6, 0.3])  # moving towards +x, +y
+    obs[0, 0, 4:6] = torch.tensor([-3.0, -3.0])  # p - p_g: goal ahead
+    first = 4 + 2 * (n - 1)
+    obs[0, 0, first:first + 3] = torch.tensor([-0.7, -0.2, 1.0])  # p - c: obstacle ahead, sensed
+    assert torch.equal(ctrl(obs)[0, 0], torch.tensor([-1.0, -1.0]))
+    slow = obs.clone()
+    slow[0, 0, 2:4] = torch.tensor([0.1, 0.0])  # closing at < 0.2 m/s: the usual field, not the corner
+    assert not torch.equal(ctrl(slow)[0, 0], torch.tensor([-1.0, -1.0]))
+    assert not torch.equal(APFController(cfg, obstacle_brake=None)(obs)[0, 0], torch.tensor([-1.0, -1.0]))

@@ -9,6 +9,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule, SoftUpdate, ValueEstimators
 
 from formation_rl.config import AlgoConfig
+from formation_rl.models.networks import ResidualActor
 
 KEYS = dict(
     action=("agents", "action"),
@@ -160,18 +161,21 @@ class Algorithm:
         """
         loss = self.loss
         obs = batch.get(("agents", "observation"))
-        mlp = loss.actor_network.module[0]  # PerRobotMLP; module[1] is the tanh
+        net = loss.actor_network.module
+        residual = isinstance(net, ResidualActor)
+        mlp = net.mlp if residual else net[0]  # PerRobotMLP; net[1] is the tanh
         with loss.actor_network_params.to_module(loss.actor_network, preserve_module_state=False):
             pre = mlp(obs)
+        action = net.squash(obs, pre) if residual else torch.tanh(pre)
         critic_module, critic_params = self._actor_critic()
         with critic_params.to_module(critic_module, preserve_module_state=False):
-            q = critic_module.module(obs, torch.tanh(pre))  # [B, N, 1]; gradient only through a_i into Q_i
+            q = critic_module.module(obs, action)  # [B, N, 1]; gradient only through a_i into Q_i
         actor_loss = -q.mean()
         if self.anchor is not None and self.cfg.bc_weight > 0:  # TD3+BC: -Q / mean|Q| + w * (a - a_anchor)^2
             with torch.no_grad():
                 anchor = self.anchor(obs)
             actor_loss = actor_loss / q.abs().mean().detach().clamp_min(1e-6)
-            actor_loss = actor_loss + self.cfg.bc_weight * (torch.tanh(pre) - anchor).pow(2).mean()
+            actor_loss = actor_loss + self.cfg.bc_weight * (action - anchor).pow(2).mean()
         if self.cfg.action_reg > 0:
             actor_loss = actor_loss + self.cfg.action_reg * pre.pow(2).mean()
         return actor_loss, {"q_actor": q.detach()}

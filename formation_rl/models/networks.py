@@ -92,9 +92,38 @@ def _may_need_grad(t: torch.Tensor) -> bool:
     return t.requires_grad or torch._C._functorch.is_batchedtensor(t)
 
 
-def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu") -> TensorDictModule:
-    """Deterministic per-robot actors ``o_i -> tanh(mu_i(o_i))`` in [-1, 1]^2 (decentralized execution)."""
-    net = nn.Sequential(PerRobotMLP(num_robots, obs_dim, 2, tuple(hidden), activation), nn.Tanh())
+class ResidualActor(nn.Module):
+    """Per-robot corrections to a fixed controller: ``clip(base(o) + scale * tanh(mu(o)), -1, 1)``.
+
+    ``base`` maps ``[..., N, D]`` observations to ``[..., N, 2]`` actions and is not trained (no
+    parameters; no gradient flows through it). The last layer of ``mu`` starts at zero, so the
+    actors start as the controller itself and learn only what to change (residual policy learning,
+    Silver et al. 2018; Johannink et al. 2019).
+    """
+
+    def __init__(self, mlp: PerRobotMLP, base: nn.Module, scale: float):
+        super().__init__()
+        self.mlp, self.base, self.scale = mlp, base, scale
+        with torch.no_grad():
+            mlp.weights[-1].zero_()
+            mlp.biases[-1].zero_()
+
+    def forward(self, observation: torch.Tensor) -> torch.Tensor:
+        return self.squash(observation, self.mlp(observation))
+
+    def squash(self, observation: torch.Tensor, pre: torch.Tensor) -> torch.Tensor:
+        """The action from the correction's pre-tanh output ``pre`` (the actor loss computes that itself)."""
+        with torch.no_grad():
+            base = self.base(observation)
+        return (base + self.scale * torch.tanh(pre)).clamp(-1.0, 1.0)
+
+
+def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
+               base: nn.Module | None = None, residual_scale: float = 0.5) -> TensorDictModule:
+    """Deterministic per-robot actors ``o_i -> tanh(mu_i(o_i))`` in [-1, 1]^2 (decentralized execution);
+    with ``base`` (a controller of the same observations), :class:`ResidualActor` corrections to it."""
+    mlp = PerRobotMLP(num_robots, obs_dim, 2, tuple(hidden), activation)
+    net = nn.Sequential(mlp, nn.Tanh()) if base is None else ResidualActor(mlp, base, residual_scale)
     return TensorDictModule(net, in_keys=[("agents", "observation")], out_keys=[("agents", "action")])
 
 
