@@ -12,7 +12,7 @@ from tensordict.nn import TensorDictModule
 from formation_rl.config import ModelConfig
 from formation_rl.envs import EnvConfig
 from formation_rl.models import make_actor
-from formation_rl.trainer import POLICY, load_checkpoint_file
+from formation_rl.trainer import POLICY, load_checkpoint_file, residual_base
 
 
 class Policy:
@@ -88,9 +88,7 @@ def load_policy(path: str | Path, device: str | torch.device = "cpu") -> Policy:
         raise ValueError(f"checkpoint {p} holds no actor: pass a policy.pt or a run directory")
     env_cfg = EnvConfig.from_dict(state["env"])
     model = ModelConfig(**state["model"])
-    from formation_rl.trainer import _residual_base
-
     actor = make_actor(env_cfg.num_robots, env_cfg.obs_dim, tuple(model.hidden), model.activation,
-                       base=_residual_base(model, env_cfg), residual_scale=model.residual_scale)
+                       base=residual_base(model, env_cfg), residual_scale=model.residual_scale)
     actor.load_state_dict(state["actor"])
     return Policy(actor.to(device).eval(), env_cfg, state["algo"])

@@ -135,7 +135,7 @@ def buffer_dump_to_load(directory: Path) -> Path | None:
     return None
 
 
-def _residual_base(model: ModelConfig, env_cfg: EnvConfig) -> nn.Module | None:
+def residual_base(model: ModelConfig, env_cfg: EnvConfig) -> nn.Module | None:
     """The controller the actors correct (``model.residual``), or None for the paper's actors."""
     if model.residual == "apf":
         from formation_rl.controllers import APFController
@@ -160,7 +160,7 @@ class Trainer:
                                 compile_physics=cfg.compile_env)
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
-        self.actor = make_actor(n, d, hidden, cfg.model.activation, base=_residual_base(cfg.model, cfg.env),
+        self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
                                 residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation).to(dev)
         self.algo = make_algorithm(self.actor, critic, a)
