@@ -37,7 +37,7 @@ eval: $(PY)  ## evaluate CKPT (policy.pt, last.pt or run dir) on 1,000 held-out 
 diagnose: $(PY)  ## why CKPT's episodes fail: success split into goal / collision parts, first-collision times
 	$(PY) -m formation_rl.diagnose $(CKPT) $(ARGS)
 
-ceiling: $(PY)  ## what the 0.2 m obstacle sensing range allows a reactive team: apf gains searched per range (~15 min)
+ceiling: $(PY)  ## what the 0.2 m obstacle sensing range allows a reactive team: apf gains searched per range (~10 min)
 	$(PY) -m formation_rl.ceiling $(ARGS)
 
 render: $(PY)  ## one held-out episode of CKPT as a GIF and a Figure-10 PNG
