@@ -42,7 +42,7 @@ from tensordict import TensorDict
 
 from formation_rl.algorithms import make_algorithm
 from formation_rl.config import TrainConfig
-from formation_rl.models import make_actor, make_critic
+from formation_rl.models import make_actor, make_critic, set_precision
 from formation_rl.replay import make_replay_buffer
 from formation_rl.trainer import Trainer
 
@@ -113,14 +113,17 @@ def make_config(algo: str, **top) -> TrainConfig:
     return cfg
 
 
-def grad_step(algo_name: str, n: int = 5, steps: int = 30, batch: int | None = None) -> dict:
+def grad_step(algo_name: str, n: int = 5, steps: int = 30, batch: int | None = None, precision: str = "fp32") -> dict:
     """Median milliseconds per gradient step on a filled buffer of random transitions, and its parts."""
     cfg = make_config(algo_name, num_robots=n)
     a, d = cfg.algo, cfg.env.obs_dim
     if batch is not None:
         a = replace(a, batch_size=batch)
     torch.manual_seed(0)
-    algo = make_algorithm(make_actor(n, d, cfg.model.hidden), make_critic(n, d, cfg.model.hidden), replace(a))
+    actor, critic = make_actor(n, d, cfg.model.hidden), make_critic(n, d, cfg.model.hidden)
+    set_precision(actor, precision)
+    set_precision(critic, precision)
+    algo = make_algorithm(actor, critic, replace(a))
     buffer = make_replay_buffer(replace(a, buffer_size=50_000))
     buffer.extend(random_transitions(50_000, n, d))
     parts: dict[str, list[float]] = {"total": [], "sample": [], "update": [], "priority": []}

@@ -88,6 +88,9 @@ class TrainConfig:
     resume: str | None = None  # a checkpoint file or run directory to continue from; "auto": this run's
     progress: bool = True  # progress bar
     threads: int | None = None  # torch intra-op threads (None: torch's default; sweeps set 1 per job)
+    precision: str = "fp32"  # fp32 | bf16: the update's forward and backward under bf16 autocast (hidden layers;
+    #                          fp32 weights, optimiser, output layers, TD targets and priorities); bf16 needs a CPU
+    #                          with AVX512-BF16/AMX or a GPU with bf16
 
 
 def register() -> None:
@@ -148,5 +151,12 @@ def validate(cfg: TrainConfig) -> None:
         import torch
 
         check(torch.cuda.is_available(), "device", cfg.device, "cpu here: CUDA is not available on this machine")
+    check(cfg.precision in ("fp32", "bf16"), "precision", cfg.precision, "fp32 or bf16")
+    if cfg.precision == "bf16":
+        from formation_rl.models import bf16_supported
+
+        check(bf16_supported(cfg.device), "precision", cfg.precision,
+              f"fp32 on this {cfg.device}: it has no native bf16 (CPU: AVX512-BF16 or AMX; GPU: bf16 support), "
+              "where bf16 would run slower, not faster")
     check(not cfg.cudagraphs or cfg.device.startswith("cuda"), "cudagraphs", cfg.cudagraphs,
           f"false with device={cfg.device} (CUDA graphs need device=cuda)")

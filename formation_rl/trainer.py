@@ -32,7 +32,7 @@ from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, NonFiniteError, ma
 from formation_rl.config import ModelConfig, TrainConfig, validate
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
-from formation_rl.models import make_actor, make_critic
+from formation_rl.models import make_actor, make_critic, set_precision
 from formation_rl.replay import make_replay_buffer, to_transitions
 from formation_rl.timing import Timings
 
@@ -163,6 +163,8 @@ class Trainer:
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
                                 residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation).to(dev)
+        set_precision(self.actor, cfg.precision)
+        set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
         if a.bc_weight > 0:  # the classical controller anchors the actor loss
             from formation_rl.controllers import APFController

@@ -41,6 +41,14 @@ class RewardConfig:
     obstacle_collision: float = -20.0  # R4
     robot_collision: float = -10.0  # R5
     tolerance: float = 0.05  # eps, m: a constraint is held when |d - d*| <= eps
+    # guided-term weights (ours, for learning; the paper's guided terms are distance 1, error 1, the rest 0):
+    leader_distance: float = 1.0  # leader guided += -leader_distance * |p_lea - p_g|
+    leader_progress: float = 0.0  # leader guided += leader_progress * (d_prev - d) / (v_max dt): progress toward the goal
+    follower_error: float = 1.0  # follower guided += -follower_error * (its active-formation error)
+    follower_progress: float = 0.0  # follower guided += follower_progress * (e_prev - e) / (v_max dt), e_prev under
+    #                                 the formation active now
+    leader_team: float = 0.0  # leader guided += -leader_team * mean follower formation error (waits for its team)
+    scale: float = 1.0  # every reward (guided and sparse) times this
 
 
 @dataclass
@@ -157,9 +165,11 @@ class EnvConfig:
         _check(r.variant, "reward.variant", lambda v: v in REWARD_VARIANTS, f"one of {', '.join(REWARD_VARIANTS)}")
         if r.area_formation is not None:
             _check_formation(r.area_formation, "reward.area_formation")
-        for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision"):
+        for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
+                     "leader_distance", "leader_progress", "follower_error", "follower_progress", "leader_team"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
+        _check(r.scale, "reward.scale", _positive, "a finite number > 0")
 
 
 def _sub(cls: type, value: Any, where: str) -> Any:

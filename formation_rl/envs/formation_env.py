@@ -113,9 +113,9 @@ class FormationEnv(EnvBase):
         self._fixed = {k: self._fixed[k].index_copy(0, idx, fresh[k]) for k in fixed}
         self._steps.index_fill_(0, idx, 0)
 
-    def _measure(self, pos, vel, goal, centers, radii) -> dict[str, torch.Tensor]:
+    def _measure(self, pos, vel, goal, centers, radii, prev_pos=None) -> dict[str, torch.Tensor]:
         """Observation, reward and diagnostics of a world given batch-last, returned batch-first."""
-        q = step_quantities(pos, goal, centers, radii, self._geom, self.config)
+        q = step_quantities(pos, goal, centers, radii, self._geom, self.config, prev_pos)
         obs = world.observe(pos, vel, q, self._obs_index)  # [B, N, D]
         if self.config.relative_positions:
             obs = world.make_relative(obs)
@@ -133,8 +133,9 @@ class FormationEnv(EnvBase):
 
     def _advance_eager(self, pos, vel, action, goal, centers, radii):
         """Integrate one step and measure the new world: the whole per-step tensor program."""
+        prev = pos
         pos, vel = world.integrate(pos, vel, action.clamp(-1.0, 1.0).permute(2, 1, 0), self.config)
-        return pos, vel, self._measure(pos, vel, goal, centers, radii)
+        return pos, vel, self._measure(pos, vel, goal, centers, radii, prev)
 
     def _pack(self, m: dict[str, torch.Tensor], rewards: bool) -> TensorDict:
         b, n = self.num_envs, self.config.num_robots

@@ -47,6 +47,7 @@ def step_quantities(
     radii: torch.Tensor,  # [M, B]
     geom: Geometry,
     cfg: EnvConfig,
+    prev_pos: torch.Tensor | None = None,  # [2, N, B] before the step: progress terms (reward.*_progress)
 ) -> dict[str, torch.Tensor]:
     """Everything the reward, the observation and the metrics need from one world state."""
     r, rw = cfg.robot_radius, cfg.reward
@@ -76,8 +77,18 @@ def step_quantities(
     follower_err = own_err.sum(2)  # [F, N, B]
     worst = own_err.amax(2)  # [F, N, B], 0 for the leader
     formation_error = (err * geom.pairs).sum((1, 2))  # [F, B]
+    progress = prev_pos is not None and (rw.leader_progress != 0 or rw.follower_progress != 0)
+    if progress:  # the same errors one step earlier, under the formations of now
+        qx, qy = prev_pos[0], prev_pos[1]
+        ddx, ddy = qx[:, None] - qx[None], qy[:, None] - qy[None]
+        prev_dist = torch.addcmul(ddx * ddx, ddy, ddy).sqrt_()
+        prev_follower_err = ((prev_dist[None] - geom.dstar).abs_() * geom.own).sum(2)  # [F, N, B]
+        prev_to_goal = prev_pos[:, 0] - goal
+        prev_goal_dist = torch.addcmul(prev_to_goal[0] * prev_to_goal[0], prev_to_goal[1], prev_to_goal[1]).sqrt_()
     if err.shape[0] == 2:  # hybrid: the area formation is active while the leader is inside
         area = in_area
+        if progress:
+            prev_follower_err = torch.where(area, prev_follower_err[1], prev_follower_err[0])
         follower_err = torch.where(area, follower_err[1], follower_err[0])
         worst = torch.where(area, worst[1], worst[0])
         formation_error = torch.where(area, formation_error[1], formation_error[0])
@@ -85,6 +96,8 @@ def step_quantities(
     else:
         area = in_area if rw.variant == "hybrid" else torch.zeros_like(in_area)
         follower_err, worst, formation_error = follower_err[0], worst[0], formation_error[0]
+        if progress:
+            prev_follower_err = prev_follower_err[0]
         bonus = torch.where(area, rw.formation_area, rw.formation_open)
 
     # sparse replaces guided: R1 leader at goal, R2/R3 follower holds formation, R4, R5 collisions
@@ -93,9 +106,17 @@ def step_quantities(
     positive_value = bonus.expand(n, b).clone()
     positive_value[0] = rw.goal
     sparse = positive * positive_value + obstacle_hit * rw.obstacle_collision + robot_hit * rw.robot_collision
-    guided = follower_err.neg_()
-    guided[0] = -goal_dist
+    guided = follower_err * -rw.follower_error
+    guided[0] = goal_dist * -rw.leader_distance
+    if rw.leader_team:
+        guided[0] -= rw.leader_team * follower_err[1:].mean(0)
+    if progress:
+        unit = cfg.max_speed * cfg.dt  # the most a robot moves in a step
+        guided[1:] += (prev_follower_err[1:] - follower_err[1:]) * (rw.follower_progress / unit)
+        guided[0] += (prev_goal_dist - goal_dist) * (rw.leader_progress / unit)
     reward = torch.where(positive | obstacle_hit | robot_hit, sparse, guided)  # [N, B]
+    if rw.scale != 1.0:
+        reward = reward * rw.scale
 
     return {
         "reward": reward,

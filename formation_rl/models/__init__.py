@@ -1,5 +1,12 @@
 """Per-robot actors and centralized critics (SPEC §5)."""
 
-from formation_rl.models.networks import CentralizedCritic, PerRobotMLP, make_actor, make_critic
+from formation_rl.models.networks import (
+    CentralizedCritic,
+    PerRobotMLP,
+    bf16_supported,
+    make_actor,
+    make_critic,
+    set_precision,
+)
 
-__all__ = ["CentralizedCritic", "PerRobotMLP", "make_actor", "make_critic"]
+__all__ = ["CentralizedCritic", "PerRobotMLP", "bf16_supported", "make_actor", "make_critic", "set_precision"]

@@ -10,12 +10,33 @@ from __future__ import annotations
 
 import math
 
+from pathlib import Path
+
 import torch
 from tensordict.nn import TensorDictModule
 from torch import nn
 from torchrl.modules import ValueOperator
 
 ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "leaky_relu": nn.LeakyReLU}
+
+
+def bf16_supported(device: torch.device | str) -> bool:
+    """Whether ``device`` multiplies bf16 natively: a CUDA GPU that says so, or a CPU with AVX512-BF16 or AMX."""
+    device = torch.device(device)
+    if device.type == "cuda":
+        return torch.cuda.is_available() and torch.cuda.is_bf16_supported()
+    try:
+        flags = Path("/proc/cpuinfo").read_text()
+    except OSError:  # not Linux: no way to tell here
+        return False
+    return " avx512_bf16" in flags or " amx_bf16" in flags
+
+
+def _hidden_autocast(x: torch.Tensor, dtype: torch.dtype | None):
+    """bf16 autocast of the hidden layers while gradients are on (the update's forward and backward);
+    passes without gradients (TD targets, collection, evaluation) stay in fp32."""
+    on = dtype is not None and torch.is_grad_enabled()
+    return torch.autocast(x.device.type, dtype=dtype or torch.bfloat16, enabled=on)
 
 
 class PerRobotMLP(nn.Module):
@@ -35,19 +56,23 @@ class PerRobotMLP(nn.Module):
             self.weights.append(nn.Parameter(torch.empty(num_robots, fan_in, fan_out).uniform_(-bound, bound)))
             self.biases.append(nn.Parameter(torch.empty(num_robots, 1, fan_out).uniform_(-bound, bound)))
         self.activation = ACTIVATIONS[activation]()  # (in place measured no faster: vmap copies the twins)
+        self.compute_dtype: torch.dtype | None = None  # torch.bfloat16: hidden layers under autocast with grad
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
         return self.layers_from(x.reshape(-1, n, d).transpose(0, 1), 0).transpose(0, 1).reshape(*lead, n, -1)
 
     def layers_from(self, h: torch.Tensor, first: int) -> torch.Tensor:
-        """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``."""
+        """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``.
+
+        With ``compute_dtype`` set and gradients on, every layer but the last runs in that dtype; the
+        last (to the Q-value or the action) always runs in fp32 on fp32 inputs.
+        """
         last = len(self.weights) - 1
-        for k in range(first, last + 1):
-            h = torch.baddbmm(self.biases[k], h, self.weights[k])  # robot i's layer on robot i's rows
-            if k < last:
-                h = self.activation(h)
-        return h
+        with _hidden_autocast(h, self.compute_dtype):
+            for k in range(first, last):
+                h = self.activation(torch.baddbmm(self.biases[k], h, self.weights[k]))  # robot i's layer
+        return torch.baddbmm(self.biases[last], h.float(), self.weights[last])
 
 
 class CentralizedCritic(nn.Module):
@@ -73,14 +98,16 @@ class CentralizedCritic(nn.Module):
         w1, b1 = self.mlp.weights[0], self.mlp.biases[0]
         h_dim = w1.shape[-1]
         joint = torch.cat([observation.reshape(-1, n * d), dead.reshape(-1, 2 * n)], -1)
-        h = torch.addmm(b1.reshape(n * h_dim), joint, w1.permute(1, 0, 2).reshape(-1, n * h_dim))
-        h = h.view(-1, n, h_dim).transpose(0, 1)  # [N, B, H]
-        if _may_need_grad(action):
-            # a_i's gradient path into critic i alone: adds zero to the values, (a_i - sg(a_i)) W_i^(i)
-            ar = torch.arange(n, device=w1.device)
-            w_own = w1[:, n * d :].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
-            h = torch.baddbmm(h, (act - dead).transpose(0, 1), w_own)
-        h = self.mlp.layers_from(self.mlp.activation(h), 1)  # [N, B, 1]
+        with _hidden_autocast(joint, self.mlp.compute_dtype):
+            h = torch.addmm(b1.reshape(n * h_dim), joint, w1.permute(1, 0, 2).reshape(-1, n * h_dim))
+            h = h.view(-1, n, h_dim).transpose(0, 1)  # [N, B, H]
+            if _may_need_grad(action):
+                # a_i's gradient path into critic i alone: adds zero to the values, (a_i - sg(a_i)) W_i^(i)
+                ar = torch.arange(n, device=w1.device)
+                w_own = w1[:, n * d :].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
+                h = torch.baddbmm(h, (act - dead).transpose(0, 1), w_own)
+            h = self.mlp.activation(h)
+        h = self.mlp.layers_from(h, 1)  # [N, B, 1]
         return h.transpose(0, 1).reshape(*lead, n, 1)
 
 
@@ -116,6 +143,16 @@ class ResidualActor(nn.Module):
         with torch.no_grad():
             base = self.base(observation)
         return (base + self.scale * torch.tanh(pre)).clamp(-1.0, 1.0)
+
+
+PRECISIONS = {"fp32": None, "bf16": torch.bfloat16}
+
+
+def set_precision(module: nn.Module, precision: str) -> None:
+    """``fp32`` or ``bf16`` for every :class:`PerRobotMLP` in ``module`` (see :meth:`PerRobotMLP.layers_from`)."""
+    for m in module.modules():
+        if isinstance(m, PerRobotMLP):
+            m.compute_dtype = PRECISIONS[precision]
 
 
 def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
