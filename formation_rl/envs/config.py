@@ -43,7 +43,7 @@ class RewardConfig:
     tolerance: float = 0.05  # eps, m: a constraint is held when |d - d*| <= eps
     # guided-term weights (ours, for learning; the paper's guided terms are distance 1, error 1, the rest 0):
     leader_distance: float = 1.0  # leader guided += -leader_distance * |p_lea - p_g|
-    leader_progress: float = 0.0  # leader guided += leader_progress * (d_prev - d) / (v_max dt): progress toward the goal
+    leader_progress: float = 0.0  # leader guided += leader_progress * (d_prev - d) / (v_max dt): goal progress
     follower_error: float = 1.0  # follower guided += -follower_error * (its active-formation error)
     follower_progress: float = 0.0  # follower guided += follower_progress * (e_prev - e) / (v_max dt), e_prev under
     #                                 the formation active now

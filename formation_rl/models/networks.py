@@ -9,7 +9,6 @@ only (paper §3, Fig. 4), which a critic fed one shared input cannot express; an
 from __future__ import annotations
 
 import math
-
 from pathlib import Path
 
 import torch
