@@ -9,7 +9,9 @@ CKPT ?=
 JOBS ?= $(shell nproc)
 SWEEP ?= outputs/sweep
 
-.PHONY: help setup train train-paper train-fast eval diagnose ceiling render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
+STUDY ?= recipe
+
+.PHONY: tune help setup train train-paper train-fast eval diagnose ceiling render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -46,6 +48,9 @@ render: $(PY)  ## one held-out episode of CKPT as a GIF and a Figure-10 PNG
 sweep: $(PY)  ## algo x seed multirun (JOBS parallel jobs) into SWEEP; ARGS e.g. "total_frames=20000"
 	SWEEP_JOBS=$(JOBS) $(PY) -m formation_rl.train -m hydra/launcher=local hydra.sweep.dir=$(SWEEP) \
 		algo=maddpg,matd3,per_matd3 seed=0,1,2 threads=1 progress=false $(ARGS)
+
+tune: $(PY)  ## Optuna study of the training recipe (SQLite in outputs/tune/, resumable; ARGS e.g. "trials=40 workers=2")
+	$(PY) -m formation_rl.tune study=$(STUDY) $(ARGS)
 
 compare: $(PY)  ## Figures 6-9 and Table 1 from RUNS (run dirs or a sweep dir)
 	$(PY) -m formation_rl.report $(RUNS) $(ARGS)

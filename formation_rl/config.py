@@ -74,6 +74,8 @@ class TrainConfig:
     algo: AlgoConfig = field(default_factory=AlgoConfig)
     model: ModelConfig = field(default_factory=ModelConfig)
     seed: int = 0  # training seed: networks, exploration and training scenarios
+    start_anywhere: float = 0.0  # share of training episodes whose robots start anywhere in the arena (exploring
+    #                              starts, ours); evaluation always starts in the SPEC's square
     total_frames: int = 300_000  # frames = transitions of one env copy (SPEC §5); paper: 9,000,000
     num_envs: int = 64  # env copies stepped together by the collector
     steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames
@@ -140,6 +142,7 @@ def validate(cfg: TrainConfig) -> None:
     check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
     check(cfg.model.residual == "none" or a.actor_init == "random", "algo.actor_init", a.actor_init,
           "random with model.residual=apf (the residual actors start as the controller already)")
+    check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
     check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
     check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")
     check(cfg.steps_per_batch >= 1, "steps_per_batch", cfg.steps_per_batch, "an integer >= 1")

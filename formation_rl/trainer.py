@@ -157,7 +157,7 @@ class Trainer:
         self._seed_everything(cfg.seed)
         dev = torch.device(cfg.device)
         self.env = FormationEnv(cfg.num_envs, config=cfg.env, device=dev, seed=cfg.seed,
-                                compile_physics=cfg.compile_env)
+                                compile_physics=cfg.compile_env, start_anywhere=cfg.start_anywhere)
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
@@ -198,6 +198,7 @@ class Trainer:
         self.last_eval: dict[str, float] = {}
         self.eval_frame = -1  # frames at the last evaluation
         self.logger: TensorboardLogger | None = None
+        self.on_evaluate: list = []  # callables (frames, metrics) run after every evaluation
         self._rng = _rng_state()  # train() starts from here, whatever ran in between (or the checkpoint's)
 
     # ------------------------------------------------------------------ the loop
@@ -359,6 +360,8 @@ class Trainer:
             for k, v in metrics.items():
                 self.logger.log_scalar(f"eval/{k}", v, step=self.frames)
         self.last_eval, self.eval_frame = metrics, self.frames
+        for hook in self.on_evaluate:  # e.g. a tuning study's pruner (it may raise to stop the run)
+            hook(self.frames, metrics)
         return metrics
 
     # ------------------------------------------------------------------ logging

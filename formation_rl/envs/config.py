@@ -48,6 +48,9 @@ class RewardConfig:
     follower_progress: float = 0.0  # follower guided += follower_progress * (e_prev - e) / (v_max dt), e_prev under
     #                                 the formation active now
     leader_team: float = 0.0  # leader guided += -leader_team * mean follower formation error (waits for its team)
+    proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
+    #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
+    proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
     scale: float = 1.0  # every reward (guided and sparse) times this
 
 
@@ -166,10 +169,12 @@ class EnvConfig:
         if r.area_formation is not None:
             _check_formation(r.area_formation, "reward.area_formation")
         for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
-                     "leader_distance", "leader_progress", "follower_error", "follower_progress", "leader_team"):
+                     "leader_distance", "leader_progress", "follower_error", "follower_progress", "leader_team",
+                     "proximity"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")
+        _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")
 
 
 def _sub(cls: type, value: Any, where: str) -> Any:

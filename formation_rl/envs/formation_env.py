@@ -39,11 +39,15 @@ class FormationEnv(EnvBase):
         device: torch.device | str = "cpu",
         seed: int | None = None,
         compile_physics: bool = False,
+        start_anywhere: float = 0.0,
     ):
         if not isinstance(num_envs, int) or isinstance(num_envs, bool) or num_envs < 1:
             raise ValueError(f"num_envs = {num_envs!r} is invalid: must be an integer >= 1")
         cfg = config if isinstance(config, EnvConfig) else EnvConfig.from_dict(config or {})
         cfg.validate()
+        if not (isinstance(start_anywhere, int | float) and 0 <= start_anywhere <= 1):
+            raise ValueError(f"start_anywhere = {start_anywhere!r} is invalid: must be a number in [0, 1]")
+        self.start_anywhere = float(start_anywhere)
         super().__init__(device=device, batch_size=torch.Size([num_envs]))
         self.config = cfg
         self.num_envs = b = num_envs
@@ -59,7 +63,7 @@ class FormationEnv(EnvBase):
         self._world: dict[str, torch.Tensor] = {}
         self._fixed: dict[str, torch.Tensor] = {}  # goal and obstacles, batch-first, as reported
         self._steps = torch.zeros(b, dtype=torch.int64, device=self.device)
-        self._place(None, world.sample_scenarios(b, cfg, self._generator, self.device))
+        self._place(None, world.sample_scenarios(b, cfg, self._generator, self.device, self.start_anywhere))
 
     # ------------------------------------------------------------------ specs
     def _make_specs(self, b: int, n: int, m: int, d: int) -> None:
@@ -172,7 +176,8 @@ class FormationEnv(EnvBase):
             idx = tensordict.get("_reset").reshape(self.num_envs).nonzero().squeeze(-1)
         count = self.num_envs if idx is None else idx.numel()
         if count:
-            self._place(idx, world.sample_scenarios(count, self.config, self._generator, self.device))
+            self._place(idx, world.sample_scenarios(count, self.config, self._generator, self.device,
+                                                          self.start_anywhere))
         out = self._observe(rewards=False)
         done = torch.zeros(self.num_envs, 1, dtype=torch.bool, device=self.device)
         out.set("done", done)

@@ -110,6 +110,12 @@ def step_quantities(
     guided[0] = goal_dist * -rw.leader_distance
     if rw.leader_team:
         guided[0] -= rw.leader_team * follower_err[1:].mean(0)
+    if rw.proximity:  # a ramp toward every collision, before it happens
+        reach = rw.proximity_range
+        robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]
+        obstacle_clear = gap - cfg.obstacle_collision_margin  # [N, M, B]
+        ramp = (1 - robot_clear / reach).clamp_(min=0).sum(1) + (1 - obstacle_clear / reach).clamp_(min=0).sum(1)
+        guided -= rw.proximity * ramp
     if progress:
         unit = cfg.max_speed * cfg.dt  # the most a robot moves in a step
         guided[1:] += (prev_follower_err[1:] - follower_err[1:]) * (rw.follower_progress / unit)

@@ -42,7 +42,8 @@ def place_discs(
 ) -> tuple[torch.Tensor, torch.Tensor] | None:
     """Place ``count`` discs in each of ``n`` copies by sequential rejection sampling.
 
-    ``sample(P)`` draws ``CANDIDATES`` candidate discs per pending copy, ``([P, K, 2], [P, K])``.
+    ``sample(pending)`` draws ``CANDIDATES`` candidate discs for each pending copy (indices ``[P]``),
+    ``([P, K, 2], [P, K])``.
     Surface gaps between placed discs are at least ``min_gap``; against ``blockers`` (centres
     ``[n, F, 2]``, radii ``[n, F]``, gap) at least that gap. A copy that jams is restarted; after
     ``tries`` rounds with copies still pending, returns ``None``.
@@ -58,7 +59,7 @@ def place_discs(
         placed_ok = torch.ones(p, dtype=torch.bool, device=dev)
         rows = torch.arange(p, device=dev)
         for k in range(count):
-            c, r = sample(p)  # [P, K, 2], [P, K]
+            c, r = sample(pending)  # [P, K, 2], [P, K]
             ok = torch.ones(r.shape, dtype=torch.bool, device=dev)
             if k > 0:
                 gap = torch.cdist(c, centers[pending, :k], compute_mode=EXACT) - r[..., None] - radii[pending, None, :k]
@@ -75,12 +76,21 @@ def place_discs(
     return (centers, radii) if pending.numel() == 0 or count == 0 else None
 
 
-def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device) -> dict[str, torch.Tensor]:
-    """Goal, obstacles and start positions for ``n`` fresh episodes (SPEC §1)."""
+def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device,
+                     anywhere: float = 0.0) -> dict[str, torch.Tensor]:
+    """Goal, obstacles and start positions for ``n`` fresh episodes (SPEC §1).
+
+    ``anywhere``: the share of episodes whose robots start anywhere in the arena instead of the SPEC's
+    start square (each robot uniform, clear of the others and of obstacles): exploring starts for
+    training only (``FormationEnv(start_anywhere=...)``); 0 is the SPEC's world.
+    """
     k = CANDIDATES
     (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
+    inner = cfg.arena_half_size - cfg.robot_radius
+    spread = torch.rand(n, generator=gen, device=device) < anywhere if anywhere > 0 else None
 
-    def obstacle(p: int):
+    def obstacle(pending: torch.Tensor):
+        p = pending.numel()
         c = torch.stack([_uniform((p, k), x0, x1, gen, device), _uniform((p, k), y0, y1, gen, device)], -1)
         return c, _uniform((p, k), cfg.obstacle_radius_min, cfg.obstacle_radius_max, gen, device)
 
@@ -99,8 +109,11 @@ def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device) -> di
     # clear of obstacle collision at t = 0 (choice: the SPEC's start square may touch an obstacle)
     exclusion = cfg.robot_radius + cfg.robot_collision_margin / 2
 
-    def robot(p: int):
+    def robot(pending: torch.Tensor):
+        p = pending.numel()
         c = _uniform((p, k, 2), cfg.start_low, cfg.start_high, gen, device)
+        if spread is not None:
+            c = torch.where(spread[pending, None, None], _uniform((p, k, 2), -inner, inner, gen, device), c)
         return c, torch.full((p, k), exclusion, device=device)
 
     clearance = cfg.robot_collision_margin / 2 + cfg.obstacle_collision_margin  # |p-c| - R >= r + rho_o

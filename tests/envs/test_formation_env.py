@@ -197,3 +197,21 @@ def test_rand_action_is_uniform_in_bounds():
     assert a.shape == (256, 5, 2) and a.min() >= -1 and a.max() <= 1
     assert env.full_action_spec["agents", "action"].is_in(a)
     assert a.mean().abs() < 0.05 and abs(a.std().item() - 3**-0.5) < 0.02  # U(-1, 1): mean 0, std 1/sqrt(3)
+
+
+def test_start_anywhere_spreads_training_starts_and_zero_keeps_the_spec_square():
+    """FormationEnv(start_anywhere=p): a share p of episodes start with robots anywhere in the arena (exploring
+    starts for training); 0, the default and every evaluation's, keeps the SPEC's start square."""
+    cfg = EnvConfig()
+    spec = FormationEnv(256, config=cfg, seed=0).reset()["state", "positions"]
+    assert spec.min() >= cfg.start_low and spec.max() <= cfg.start_high
+    env = FormationEnv(256, config=cfg, seed=0, start_anywhere=0.5)
+    pos = env.reset()["state", "positions"]  # [B, N, 2]
+    outside = (pos > cfg.start_high).any(-1).any(-1).float().mean().item()
+    assert 0.3 < outside < 0.6  # about half the copies (a few spread ones land in the square by chance)
+    assert pos.abs().max() <= cfg.arena_half_size - cfg.robot_radius
+    d = torch.cdist(pos, pos) + torch.eye(cfg.num_robots) * 10
+    assert d.min() >= 2 * cfg.robot_radius + cfg.robot_collision_margin - 1e-6
+    assert not env.reset()["obstacle_collision"].any()
+    with pytest.raises(ValueError, match=r"^start_anywhere = 2 is invalid: must be a number in \[0, 1\]"):
+        FormationEnv(1, start_anywhere=2)

@@ -145,3 +145,72 @@ def test_spacing_of_exactly_the_margin_is_not_a_collision():
     p[2] = [p[1][0] + 0.3125, p[1][1]]  # 0.3125 - 0.2 = 0.1125 >= rho_r
     _, nxt = rewards_at(make_env(), p)
     assert not nxt["robot_collision"].item()
+
+
+def test_progress_terms_reward_motion_toward_the_goal_and_the_formation():
+    """reward=shaped's guided terms: (d_prev - d) / (v_max dt) for the leader, the same on the active-formation
+    error for followers, plus the weighted level terms, all times scale; sparse events still replace them."""
+    cfg = EnvConfig(num_obstacles=1)
+    cfg.reward = RewardConfig(leader_distance=0.1, leader_progress=1.0, follower_error=0.1, follower_progress=1.0,
+                              scale=0.5)
+    env = FormationEnv(1, config=cfg, seed=0)
+    slots = np.array(v_slots((-1.0, 3.0)))  # outside the obstacle area (y > 2)
+    start = slots.copy()
+    start[1] += [0.0, 0.3]  # L1 off its slot
+    goal = (3.2, 3.2)
+    vel = np.zeros((5, 2))
+    vel[0] = [0.5, 0.0]  # leader flies toward the goal (east), L1 back toward its slot (south)
+    vel[1] = [0.0, -0.5]
+    env.set_world_state(positions=[start.tolist()], velocities=[vel.tolist()], goal=[goal],
+                        obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
+    nxt = env.step(TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1]))["next"]
+    r = nxt["agents", "reward"][0, :, 0].double().numpy()
+    pos = nxt["state", "positions"][0].double().numpy()
+    unit = cfg.max_speed * cfg.dt
+
+    def follower_error(p, i):
+        d = np.linalg.norm(p[:, None] - p[None], axis=-1)
+        return np.abs(d[i] - v_dstar()[i]).sum()
+
+    d_prev, d_now = np.linalg.norm(start[0] - goal), np.linalg.norm(pos[0] - goal)
+    assert d_now < d_prev
+    assert r[0] == pytest.approx(0.5 * (-0.1 * d_now + (d_prev - d_now) / unit), abs=1e-4)
+    e_prev, e_now = follower_error(start, 1), follower_error(pos, 1)
+    assert e_now < e_prev
+    assert r[1] == pytest.approx(0.5 * (-0.1 * e_now + (e_prev - e_now) / unit), abs=1e-4)
+    assert r[1] > 0  # moving back toward its slot pays more than the error costs
+
+    # a collision still replaces the guided term (times scale); L2 holds the V too, so R2 adds to R4
+    env.set_world_state(positions=[slots.tolist()], velocities=torch.zeros(1, 5, 2), goal=[goal],
+                        obstacle_centers=[[slots[3].tolist()]], obstacle_radii=[(0.5,)])
+    nxt = env.step(TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1]))["next"]
+    rw = cfg.reward
+    assert nxt["agents", "reward"][0, 3, 0].item() == pytest.approx(0.5 * (rw.obstacle_collision + rw.formation_open))
+
+
+def test_shaped_reward_config_composes():
+    """conf/reward/shaped.yaml: the hybrid switch with progress terms; the paper's variants keep their weights."""
+    from omegaconf import OmegaConf
+
+    shaped = OmegaConf.load("conf/reward/shaped.yaml")
+    assert shaped.variant == "hybrid" and shaped.leader_progress > 0 and shaped.follower_progress > 0
+    paper = RewardConfig()
+    assert (paper.leader_distance, paper.leader_progress, paper.follower_error, paper.follower_progress,
+            paper.leader_team, paper.scale) == (1.0, 0.0, 1.0, 0.0, 0.0, 1.0)
+
+
+def test_proximity_ramps_toward_a_collision_before_it_happens():
+    cfg = EnvConfig(num_obstacles=1)
+    cfg.reward = RewardConfig(proximity=2.0, proximity_range=0.2)
+    env = FormationEnv(1, config=cfg, seed=0)
+    base, _ = rewards_at(make_env(), v_slots())  # the paper's reward of the same state
+    slots = v_slots()
+    r, _ = rewards_at(env, slots)
+    np.testing.assert_allclose(r, base, atol=1e-5)  # V slots are >= 0.5 m apart: clearance 0.2, no ramp
+    near = [list(p) for p in slots]
+    near[1] = [slots[0][0] - 0.25, slots[0][1] + 0.25]  # L1 0.354 m from the leader: clearance 0.054 m
+    r, _ = rewards_at(env, near)
+    ref, _ = rewards_at(make_env(), near)
+    ramp = 1 - (math.hypot(0.25, 0.25) - 0.3) / 0.2
+    assert r[0] == pytest.approx(ref[0] - 2.0 * ramp, abs=1e-5)
+    assert r[1] == pytest.approx(ref[1] - 2.0 * ramp, abs=1e-5)

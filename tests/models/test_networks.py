@@ -70,3 +70,40 @@ def test_critic_equals_per_robot_mlp_on_the_joint_input():
     joint = torch.cat([obs.flatten(-2), act.flatten(-2)], -1)  # [B, N*D + 2N]
     expected = module.mlp(joint.unsqueeze(-2).expand(5, N, -1))  # robot i's MLP on the joint input
     torch.testing.assert_close(critic(td(obs, act))["agents", "state_action_value"], expected, atol=1e-5, rtol=1e-5)
+
+
+def test_bf16_runs_hidden_layers_in_bf16_only_with_gradients():
+    """precision=bf16: passes without gradients (TD targets, collection) are bit-identical to fp32; with
+    gradients the hidden layers run in bf16, the outputs stay fp32 and close, and gradients reach fp32 weights."""
+    from formation_rl.models import set_precision
+
+    actor, critic = make_actor(N, D, (16, 16)), make_critic(N, D, (16, 16))
+    obs, act = torch.randn(64, N, D), torch.rand(64, N, 2) * 2 - 1
+    with torch.no_grad():
+        a32, q32 = actor(td(obs))["agents", "action"], critic(td(obs, act))["agents", "state_action_value"]
+    set_precision(actor, "bf16")
+    set_precision(critic, "bf16")
+    with torch.no_grad():
+        assert torch.equal(actor(td(obs))["agents", "action"], a32)
+        assert torch.equal(critic(td(obs, act))["agents", "state_action_value"], q32)
+    q = critic(td(obs, act.requires_grad_()))["agents", "state_action_value"]
+    assert q.dtype == torch.float32 and not torch.equal(q.detach(), q32)  # bf16 inside: not bit-identical
+    torch.testing.assert_close(q.detach(), q32, atol=0.05, rtol=0.05)
+    q.sum().backward()
+    weights = list(critic.parameters())
+    assert all(w.dtype == torch.float32 and w.grad is not None and w.grad.dtype == torch.float32 for w in weights)
+    set_precision(critic, "fp32")
+    with torch.enable_grad():
+        assert torch.equal(critic(td(obs, act))["agents", "state_action_value"].detach(), q32)
+
+
+def test_bf16_is_refused_where_the_cpu_lacks_it(monkeypatch):
+    import pytest
+
+    from formation_rl.config import TrainConfig, validate
+
+    monkeypatch.setattr("formation_rl.models.bf16_supported", lambda device: False)
+    with pytest.raises(ValueError, match=r"^precision = 'bf16' is invalid: must be fp32 on this cpu"):
+        validate(TrainConfig(precision="bf16"))
+    with pytest.raises(ValueError, match=r"^precision = 'fp16' is invalid: must be fp32 or bf16"):
+        validate(TrainConfig(precision="fp16"))
