@@ -24,7 +24,7 @@ from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 from tqdm import tqdm
 
-from formation_rl.cli import one_line_errors
+from formation_rl.cli import check_device, one_line_errors
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
 
@@ -138,6 +138,7 @@ def _overridden_env(cfg: DictConfig, base: EnvConfig) -> EnvConfig:
 def main(cfg: DictConfig) -> None:
     from formation_rl.policy import CLASSICAL, classical_policy, is_classical, load_policy, policy_path
 
+    check_device(cfg.device)
     ckpt = cfg.ckpt
     if not ckpt:
         raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt, run directory or apf "

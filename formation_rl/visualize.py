@@ -14,7 +14,7 @@ import torch
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig
 
-from formation_rl.cli import one_line_errors
+from formation_rl.cli import check_device, one_line_errors
 from formation_rl.envs import FormationEnv
 from formation_rl.envs.metrics import episode_metrics, summarize
 from formation_rl.envs.render import plot_trajectories, save_gif
@@ -29,6 +29,7 @@ class RenderConfig:
     out: str | None = None
     gif: bool = True
     fps: int = 15
+    device: str = "cpu"  # cpu | cuda | cuda:<index>: where the episode is rolled
 
 
 ConfigStore.instance().store(name="render_schema", node=RenderConfig)
@@ -39,6 +40,7 @@ ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 def main(cfg: DictConfig) -> None:
     from formation_rl.policy import CLASSICAL, is_classical, load_policy, policy_path
 
+    check_device(cfg.device)
     if not cfg.ckpt:
         raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt, run directory or apf "
                          "(make render CKPT=...)")

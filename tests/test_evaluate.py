@@ -85,6 +85,33 @@ def test_render_cli_writes_gif_and_figure_10(trained, tmp_path):
     assert out.returncode == 2 and "steps = [500] is invalid" in out.stderr
 
 
+@pytest.mark.parametrize("module, args", [("formation_rl.evaluate", ["ckpt=apf", "episodes=1", "out={out}"]),
+                                          ("formation_rl.visualize", ["ckpt=apf", "out={out}"]),
+                                          ("formation_rl.rollout", [])])
+def test_unavailable_device_is_one_line_error_before_any_work(module, args, tmp_path):
+    """`make eval|render|demo ARGS="device=cuda"` without the GPU: the one-line error training gives, no traceback."""
+    args = [a.format(out=tmp_path / "out") for a in args]
+    out = _cli(module, *args, "device=cuda:99", f"hydra.run.dir={tmp_path}/run")
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr[-2000:]
+    assert out.stderr.startswith("error: device = 'cuda:99' is invalid: must be cpu")
+    assert not (tmp_path / "out").exists()
+
+
+def test_device_check_is_the_one_of_training(monkeypatch):
+    from formation_rl.cli import check_device
+    from formation_rl.config import TrainConfig, validate
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    message = "device = 'cuda' is invalid: must be cpu here: CUDA is not available on this machine"
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        check_device("cuda")
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        validate(TrainConfig(device="cuda"))
+    with pytest.raises(ValueError, match=r"^device = 'gpu' is invalid: must be cpu, cuda or cuda:<index>$"):
+        check_device("gpu")
+    check_device("cpu")
+
+
 def synthetic_run(root: Path, algo: str, seed: int, final: dict, slope: float) -> Path:
     run = root / f"{algo}_seed{seed}"
     (run / ".hydra").mkdir(parents=True)
