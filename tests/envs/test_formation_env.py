@@ -197,3 +197,18 @@ def test_rand_action_is_uniform_in_bounds():
     assert a.shape == (256, 5, 2) and a.min() >= -1 and a.max() <= 1
     assert env.full_action_spec["agents", "action"].is_in(a)
     assert a.mean().abs() < 0.05 and abs(a.std().item() - 3**-0.5) < 0.02  # U(-1, 1): mean 0, std 1/sqrt(3)
+
+
+def test_actions_that_require_grad_are_detached_by_the_step():
+    """A policy outside torch.no_grad() gives actions with a graph; the world steps on their values."""
+    weight = torch.full((2,), 0.5, requires_grad=True)
+
+    def policy(td):
+        td.set(("agents", "action"), torch.zeros_like(td["agents", "observation"][..., :2]) + weight)
+        return td
+
+    plain = FormationEnv(3, config=EnvConfig(max_steps=10), seed=4).rollout(10, lambda td: td.set(
+        ("agents", "action"), torch.full_like(td["agents", "observation"][..., :2], 0.5)))
+    graded = FormationEnv(3, config=EnvConfig(max_steps=10), seed=4).rollout(10, policy)
+    assert graded["agents", "action"].requires_grad and not graded["next", "state", "positions"].requires_grad
+    torch.testing.assert_close(graded["next", "state", "positions"], plain["next", "state", "positions"])
