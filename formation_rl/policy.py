@@ -110,6 +110,19 @@ def policy_path(path: str | Path) -> Path:
     return p
 
 
+def output_dir(kind: str, ckpt: str | Path) -> Path:
+    """Where ``make eval`` / ``make render`` (``kind``: eval, render) write by default: ``outputs/<kind>/<name>``,
+    never beside the checkpoint. ``name``: ``apf``, the checkpoint file's stem (``pretrained/per_matd3.pt``:
+    ``per_matd3``), or for a ``policy.pt`` / ``last.pt`` the run directory's name."""
+    if is_classical(ckpt):
+        return Path("outputs") / kind / CLASSICAL
+    p = policy_path(ckpt).resolve()
+    if p.stem in ("policy", "last"):
+        run = p.parent.parent if p.parent.name == "checkpoints" else p.parent
+        return Path("outputs") / kind / run.name
+    return Path("outputs") / kind / p.stem
+
+
 def load_policy(path: str | Path, device: str | torch.device = "cpu", env_config: EnvConfig | None = None) -> Policy:
     """A policy from ``policy.pt``, a ``last.pt`` beside one, or a run directory; ``"apf"``: the
     classical controller.

@@ -3,6 +3,8 @@
 import csv
 import json
 import math
+import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +19,7 @@ from formation_rl import diagnose, report
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
 from formation_rl.evaluate import evaluate_policy, mean_ci
-from formation_rl.policy import load_policy
+from formation_rl.policy import load_policy, output_dir
 from formation_rl.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -110,6 +112,39 @@ def test_device_check_is_the_one_of_training(monkeypatch):
     with pytest.raises(ValueError, match=r"^device = 'gpu' is invalid: must be cpu, cuda or cuda:<index>$"):
         check_device("gpu")
     check_device("cpu")
+
+
+def _cli_in(cwd, module, *args):
+    """The command run from another directory (a user's project), importing this checkout."""
+    return subprocess.run([sys.executable, "-m", module, *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=600, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def test_eval_and_render_write_under_outputs_never_beside_the_checkpoint(tmp_path):
+    """`make eval|render CKPT=pretrained/...` wrote into pretrained/ (both the same metrics.json): now
+    outputs/eval/<name> and outputs/render/<name>, titled with what the policy is."""
+    shipped = tmp_path / "pretrained"
+    shipped.mkdir()
+    shutil.copy(ROOT / "pretrained" / "per_matd3_fast.pt", shipped / "fast.pt")
+    out = _cli_in(tmp_path, "formation_rl.evaluate", "ckpt=pretrained/fast.pt", "episodes=2", "num_envs=2")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "per_matd3 residual=apf on 2 held-out episodes" in out.stdout
+    assert json.loads((tmp_path / "outputs/eval/fast/metrics.json").read_text())["eval"]["policy"] == \
+        "per_matd3 residual=apf"
+    out = _cli_in(tmp_path, "formation_rl.visualize", "ckpt=pretrained/fast.pt", "gif=false", "steps=[10]")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert (tmp_path / "outputs/render/fast/trajectories.png").is_file()
+    assert [p.name for p in shipped.iterdir()] == ["fast.pt"]
+
+
+def test_default_output_directory_names_the_checkpoint_or_run(tmp_path):
+    run = tmp_path / "2026-01-01_00-00-00_seed0"
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "checkpoints" / "policy.pt").touch()
+    assert output_dir("eval", run) == Path("outputs/eval/2026-01-01_00-00-00_seed0")
+    assert output_dir("render", run / "checkpoints" / "last.pt") == Path("outputs/render/2026-01-01_00-00-00_seed0")
+    assert output_dir("eval", ROOT / "pretrained" / "per_matd3.pt") == Path("outputs/eval/per_matd3")
+    assert output_dir("render", "apf") == Path("outputs/render/apf")
 
 
 def synthetic_run(root: Path, algo: str, seed: int, final: dict, slope: float) -> Path:
@@ -206,6 +241,15 @@ def test_report_table_from_evaluation_directories(tmp_path):
     assert report.main([str(tmp_path / "runs")]) == 0
     rows = list(csv.DictReader((tmp_path / "runs" / "table1.csv").open()))
     assert len(rows) == 1 and rows[0]["seeds"] == "1" and float(rows[0]["CBRO"]) == pytest.approx(9.0)
+    # so is make eval's default outputs/eval/<run>, which records the run's checkpoint
+    other = synthetic_run(tmp_path / "runs2", "matd3", 0, base, 1.0)
+    kept = evaluation_dir(tmp_path / "eval", other.name, "matd3", "hybrid", {**base, "CBRO": 7.0})
+    record = json.loads((kept / "metrics.json").read_text())
+    record["eval"]["ckpt"] = str(other / "checkpoints" / "policy.pt")
+    (kept / "metrics.json").write_text(json.dumps(record))
+    assert report.main([str(tmp_path / "runs2"), str(tmp_path / "eval"), "--out", str(figures)]) == 0
+    rows = list(csv.DictReader((figures / "table1.csv").open()))
+    assert len(rows) == 1 and rows[0]["seeds"] == "1" and float(rows[0]["CBRO"]) == pytest.approx(7.0)
 
 
 def test_report_names_groups_of_numbers_and_flags_by_their_key():
