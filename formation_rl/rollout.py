@@ -7,6 +7,7 @@ run directory and prints both paths.
 from __future__ import annotations
 
 import json
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,6 +36,7 @@ class RolloutConfig:
 
 
 ConfigStore.instance().store(name="rollout_schema", node=RolloutConfig)
+log = logging.getLogger(__name__)  # stdout and the run's rollout.log (conf/hydra/job_logging/plain.yaml)
 
 
 def run(cfg: RolloutConfig | DictConfig, out_dir: Path) -> dict[str, float]:
@@ -72,8 +74,8 @@ def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     metrics = run(cfg, out_dir)
     width = max(map(len, metrics))
-    print("\n".join(f"{k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
-    print(f"wrote {out_dir / 'metrics.json'}" + (f" and {out_dir / 'rollout.gif'}" if cfg.gif else ""))
+    log.info("\n".join(f"{k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
+    log.info(f"wrote {out_dir / 'metrics.json'}" + (f" and {out_dir / 'rollout.gif'}" if cfg.gif else ""))
 
 
 if __name__ == "__main__":

@@ -96,7 +96,7 @@ def test_unavailable_device_is_one_line_error_before_any_work(module, args, tmp_
     out = _cli(module, *args, "device=cuda:99", f"hydra.run.dir={tmp_path}/run")
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr[-2000:]
     assert out.stderr.startswith("error: device = 'cuda:99' is invalid: must be cpu")
-    assert not (tmp_path / "out").exists()
+    assert not (tmp_path / "out").exists() and not (tmp_path / "run").exists()
 
 
 def test_device_check_is_the_one_of_training(monkeypatch):
@@ -135,6 +135,9 @@ def test_eval_and_render_write_under_outputs_never_beside_the_checkpoint(tmp_pat
     assert out.returncode == 0, out.stderr[-2000:]
     assert (tmp_path / "outputs/render/fast/trajectories.png").is_file()
     assert [p.name for p in shipped.iterdir()] == ["fast.pt"]
+    # and no empty timestamped Hydra directory beside them
+    assert sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "outputs").rglob("*") if p.is_dir()) == \
+        ["outputs/eval", "outputs/eval/fast", "outputs/render", "outputs/render/fast"]
 
 
 def test_default_output_directory_names_the_checkpoint_or_run(tmp_path):
