@@ -255,6 +255,15 @@ def test_report_table_from_evaluation_directories(tmp_path):
     assert len(rows) == 1 and rows[0]["seeds"] == "1" and float(rows[0]["CBRO"]) == pytest.approx(7.0)
 
 
+@pytest.mark.skipif(shutil.which("make") is None, reason="no make")
+def test_make_tensorboard_passes_args():
+    """`make tensorboard ARGS="--port 6100"` ignored ARGS."""
+    out = subprocess.run(["make", "-n", "tensorboard", "RUNS=outputs/train", "ARGS=--port 6100"], cwd=ROOT,
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert any(line.endswith("/bin/tensorboard --logdir outputs/train --port 6100") for line in out.stdout.splitlines())
+
+
 def test_report_names_groups_of_numbers_and_flags_by_their_key():
     run = report.Run(Path("r"), {"algo": {"name": "matd3", "batch_size": 256}, "env": {"relative_positions": True}})
     assert report.group_key(run, "algo.name") == "matd3"
