@@ -55,8 +55,8 @@ tune: $(PY)  ## Optuna study of the training recipe (SQLite in outputs/tune/, re
 compare: $(PY)  ## Figures 6-9 and Table 1 from RUNS (run dirs or a sweep dir)
 	$(PY) -m formation_rl.report $(RUNS) $(ARGS)
 
-tensorboard: $(PY)  ## serve TensorBoard over RUNS (default outputs/)
-	$(VENV)/bin/tensorboard --logdir $(RUNS)
+tensorboard: $(PY)  ## serve TensorBoard over RUNS (default outputs/); ARGS e.g. "--port 6007 --bind_all"
+	$(VENV)/bin/tensorboard --logdir $(RUNS) $(ARGS)
 
 demo: $(PY)  ## roll 64 copies for one episode, print SPEC §6 metrics, write a GIF (ARGS = Hydra overrides)
 	$(PY) -m formation_rl.rollout $(ARGS)

@@ -3,8 +3,9 @@
 __version__ = "0.1.0"
 
 
-def load_policy(path, device="cpu"):
-    """A trained policy (callable from observations [..., N, D] to actions [..., N, 2]); see formation_rl.policy."""
+def load_policy(path, device="cpu", env_config=None):
+    """A trained policy (callable from observations [..., N, D] to actions [..., N, 2], and a TorchRL policy);
+    ``"apf"``: the classical controller for ``env_config`` (the world it acts in); see formation_rl.policy."""
     from formation_rl.policy import load_policy as _load
 
-    return _load(path, device)
+    return _load(path, device, env_config)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import functools
+import re
+import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -11,17 +13,67 @@ CONF = Path(__file__).resolve().parent.parent / "conf"
 
 
 def one_line_errors(main: Callable) -> Callable:
-    """Print a ``ValueError`` (bad config or input) as ``error: ...`` on stderr and exit with 2."""
+    """Print a ``ValueError`` (bad config or input) as ``error: ...`` on stderr and exit with 2.
+
+    A Hydra run directory the call leaves empty is removed (eval and render write elsewhere), and so is
+    a refused call's, which holds only ``.hydra/``."""
 
     @functools.wraps(main)
     def wrapper(*args, **kwargs):
         try:
-            return main(*args, **kwargs)
+            out = main(*args, **kwargs)
         except ValueError as err:
+            remove_unused_run_dir(refused=True)
             print(f"error: {err}", file=sys.stderr)
             sys.exit(2)
+        remove_unused_run_dir(refused=False)
+        return out
 
     return wrapper
+
+
+def remove_unused_run_dir(refused: bool) -> None:
+    """Remove this Hydra job's run directory if it holds nothing but empty logs (and, for a ``refused`` call,
+    the composed config in ``.hydra/``), then its parents left empty, up to the working directory."""
+    from hydra.core.hydra_config import HydraConfig
+
+    if not HydraConfig.initialized():
+        return
+    run, cwd = Path(HydraConfig.get().runtime.output_dir).resolve(), Path.cwd().resolve()
+    if run == cwd or run in cwd.parents:
+        return
+    for f in run.rglob("*"):
+        unused = f.is_dir() or (f.suffix == ".log" and f.stat().st_size == 0) or (
+            refused and ".hydra" in f.relative_to(run).parts)
+        if not unused:
+            return
+    shutil.rmtree(run, ignore_errors=True)
+    for parent in run.parents:
+        if parent == cwd or cwd not in parent.parents:
+            break
+        try:
+            parent.rmdir()  # only if empty
+        except OSError:
+            break
+
+
+def check_device(device: str) -> None:
+    """Raise a one-line ``ValueError`` unless ``device`` is ``cpu`` or a CUDA device this machine has.
+
+    Every entry point calls it before any compute (training through ``formation_rl.config.validate``)."""
+    device = str(device)
+    if device == "cpu":
+        return
+    if not re.fullmatch(r"cuda(:\d+)?", device):
+        raise ValueError(f"device = {device!r} is invalid: must be cpu, cuda or cuda:<index>")
+    import torch
+
+    if not torch.cuda.is_available():
+        raise ValueError(f"device = {device!r} is invalid: must be cpu here: CUDA is not available on this machine")
+    count = torch.cuda.device_count()
+    if ":" in device and int(device.split(":")[1]) >= count:
+        raise ValueError(f"device = {device!r} is invalid: must be cpu, cuda or cuda:<index> with index < {count} "
+                         f"here ({count} CUDA device{'s' if count > 1 else ''})")
 
 
 def check_overrides(schema: type, groups: tuple[str, ...], argv: list[str] | None = None) -> None:

@@ -149,11 +149,9 @@ def validate(cfg: TrainConfig) -> None:
     for name in ("eval_interval", "checkpoint_interval", "eval_episodes"):
         check(getattr(cfg, name) >= 1, name, getattr(cfg, name), "an integer >= 1")
     check(cfg.threads is None or cfg.threads >= 1, "threads", cfg.threads, "null or an integer >= 1")
-    check(cfg.device == "cpu" or cfg.device.startswith("cuda"), "device", cfg.device, "cpu, cuda or cuda:<index>")
-    if cfg.device.startswith("cuda"):
-        import torch
+    from formation_rl.cli import check_device  # the check make eval, render and demo make too
 
-        check(torch.cuda.is_available(), "device", cfg.device, "cpu here: CUDA is not available on this machine")
+    check_device(cfg.device)
     check(cfg.precision in ("fp32", "bf16"), "precision", cfg.precision, "fp32 or bf16")
     if cfg.precision == "bf16":
         from formation_rl.models import bf16_supported

@@ -2,7 +2,8 @@
 
 Deterministic actors on ``episodes`` fresh episodes from held-out seeds, batched over env copies;
 prints mean and 95% confidence interval of each metric and writes ``metrics.json`` and
-``metrics.csv`` next to the checkpoint (or into ``out``). ``env.*``, ``formation=`` and ``reward=``
+``metrics.csv`` into ``out`` (default ``outputs/eval/<name>``, never beside the checkpoint:
+:func:`formation_rl.policy.output_dir`). ``env.*``, ``formation=`` and ``reward=``
 overrides change the evaluation world; the team size and observation width must stay the policy's.
 """
 
@@ -24,7 +25,7 @@ from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 from tqdm import tqdm
 
-from formation_rl.cli import one_line_errors
+from formation_rl.cli import check_device, one_line_errors
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
 
@@ -40,7 +41,7 @@ class EvalConfig:
     episodes: int = 1000  # fresh held-out episodes (SPEC §6)
     num_envs: int = 1000  # copies stepped together (episodes run in rounds of this many)
     seed: int = EVAL_SEED
-    out: str | None = None  # where metrics.json / metrics.csv go (default: beside the checkpoint)
+    out: str | None = None  # where metrics.json / metrics.csv go (default: outputs/eval/<checkpoint or run name>)
     device: str = "cpu"
     env: EnvConfig = field(default_factory=EnvConfig)  # only the keys overridden on the command line apply
 
@@ -136,8 +137,9 @@ def _overridden_env(cfg: DictConfig, base: EnvConfig) -> EnvConfig:
 @hydra.main(config_path="../conf", config_name="evaluate", version_base=None)
 @one_line_errors
 def main(cfg: DictConfig) -> None:
-    from formation_rl.policy import CLASSICAL, classical_policy, is_classical, load_policy, policy_path
+    from formation_rl.policy import CLASSICAL, classical_policy, is_classical, load_policy, output_dir, policy_path
 
+    check_device(cfg.device)
     ckpt = cfg.ckpt
     if not ckpt:
         raise ValueError("ckpt = None is invalid: must be a policy.pt, last.pt, run directory or apf "
@@ -146,22 +148,22 @@ def main(cfg: DictConfig) -> None:
         field_, value = ("episodes", cfg.episodes) if cfg.episodes < 1 else ("num_envs", cfg.num_envs)
         raise ValueError(f"{field_} = {value} is invalid: must be an integer >= 1")
     if is_classical(ckpt):  # no checkpoint: the default world with the overrides
-        source, default_out = CLASSICAL, Path("outputs/eval") / CLASSICAL
+        source = CLASSICAL
         env_cfg = _overridden_env(cfg, EnvConfig())
         policy = classical_policy(env_cfg, cfg.device)
     else:
         path = policy_path(ckpt)
-        source, default_out = str(path), path.parent
+        source = str(path)
         policy = load_policy(path, cfg.device)
         env_cfg = _overridden_env(cfg, policy.env_config)
         policy.check_world(env_cfg)
     per_episode = evaluate_policy(policy.module, env_cfg, cfg.episodes, cfg.num_envs, cfg.seed, cfg.device)
     summary = summarize_ci(per_episode)
-    out_dir = Path(cfg.out) if cfg.out else default_out
-    meta = {"ckpt": source, "algo": policy.algo, "episodes": cfg.episodes, "seed": cfg.seed,
+    out_dir = Path(cfg.out) if cfg.out else output_dir("eval", ckpt)
+    meta = {"ckpt": source, "algo": policy.algo, "policy": policy.label, "episodes": cfg.episodes, "seed": cfg.seed,
             "env": dataclasses.asdict(env_cfg)}
     js, cs = write_results(summary, out_dir, meta)
-    print(format_table(summary, f"{policy.algo} on {cfg.episodes} held-out episodes (seed {cfg.seed}):"))
+    print(format_table(summary, f"{policy.label} on {cfg.episodes} held-out episodes (seed {cfg.seed}):"))
     print(f"wrote {js} and {cs}")
 
 

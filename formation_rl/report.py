@@ -4,8 +4,9 @@
 
 Each run directory (Hydra's, with ``.hydra/config.yaml`` and ``tb/``) is grouped by a config key;
 curves are the mean over the group's seeds with a shaded min-max spread, smoothed; Table 1 takes
-each run's final evaluation (``checkpoints/metrics.json`` from ``make eval`` when present, else the
-training run's ``metrics.json``) and reports mean ± 95% CI across seeds beside the paper's numbers.
+each run's final evaluation (the ``make eval`` of its checkpoint when present: ``outputs/eval/<run>``
+given among the runs, or ``checkpoints/metrics.json``; else the training run's ``metrics.json``)
+and reports mean ± 95% CI across seeds beside the paper's numbers.
 
 A directory written by ``make eval ... ARGS="out=DIR"`` (a ``metrics.json`` that records its evaluation) counts
 as a run without curves: it enters Table 1, grouped by the same keys (``algo.name``, ``env.reward.variant``, ...
@@ -136,6 +137,21 @@ def load_run(path: Path) -> Run:
             run.final = {k: v for k, v in json.loads(candidate.read_text()).items() if isinstance(v, (int, float))}
             break
     return run
+
+
+def attach_evaluations(runs: list[Run]) -> list[Run]:
+    """An evaluation of a training run's checkpoint (``make eval`` writes ``outputs/eval/<run>``, recording the
+    checkpoint it read) is that run's final, not a run of its own."""
+    trained = {r.path.resolve(): r for r in runs if (r.path / ".hydra").is_dir()}
+    kept = []
+    for r in runs:
+        ckpt = r.config.get("ckpt") if r.path.resolve() not in trained else None
+        owner = next((trained[p] for p in Path(ckpt).resolve().parents if p in trained), None) if ckpt else None
+        if owner is None:
+            kept.append(r)
+        else:
+            owner.final = r.final
+    return kept
 
 
 def _series(ea, tag: str) -> tuple[np.ndarray, np.ndarray]:
@@ -291,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if not 0 <= args.smooth < 1:
             raise ValueError(f"--smooth = {args.smooth} is invalid: must be in [0, 1)")
-        runs = [load_run(p) for p in find_runs(args.runs)]
+        runs = attach_evaluations([load_run(p) for p in find_runs(args.runs)])
         sizes = {r.config.get("env", {}).get("num_robots") for r in runs}
         if len(sizes) > 1 and args.by != "env.num_robots":
             raise ValueError(f"runs mix team sizes {sorted(sizes)}: compare one N at a time (or --by env.num_robots)")

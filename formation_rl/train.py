@@ -7,6 +7,7 @@ and the final evaluation (``metrics.json``) into the Hydra run directory.
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 
 import hydra
@@ -18,6 +19,7 @@ from formation_rl.config import register
 from formation_rl.trainer import Trainer
 
 register()
+log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/job_logging/plain.yaml)
 
 
 @hydra.main(config_path="../conf", config_name="config", version_base=None)
@@ -30,10 +32,10 @@ def main(cfg: DictConfig) -> float:
     metrics = trainer.train()
     (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
     width = max(map(len, metrics))
-    print(f"final evaluation ({cfg.eval_episodes} held-out episodes):")
-    print("\n".join(f"  {k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
-    print(f"wall time {trainer.timings.total():.0f} s: {trainer.timings.summary()}")
-    print(f"run directory: {run_dir}")
+    log.info(f"final evaluation ({cfg.eval_episodes} held-out episodes):")
+    log.info("\n".join(f"  {k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
+    log.info(f"wall time {trainer.timings.total():.0f} s: {trainer.timings.summary()}")
+    log.info(f"run directory: {run_dir}")
     return metrics["episode_reward"]
 
 

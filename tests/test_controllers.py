@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 import torch
 
 import formation_rl
@@ -97,3 +98,17 @@ def test_controller_brakes_with_the_box_corner_when_closing_on_an_obstacle():
     slow[0, 0, 2:4] = torch.tensor([0.1, 0.0])  # closing at < 0.2 m/s: the usual field, not the corner
     assert not torch.equal(ctrl(slow)[0, 0], torch.tensor([-1.0, -1.0]))
     assert not torch.equal(APFController(cfg, obstacle_brake=None)(obs)[0, 0], torch.tensor([-1.0, -1.0]))
+
+
+def test_load_policy_apf_reads_the_layout_of_the_world_it_is_given():
+    """load_policy("apf") without a world reads absolute positions; with env_config=cfg it reads cfg's layout
+    (relative positions) and acts as on absolute ones. A checkpoint refuses a layout it was not trained on."""
+    rel = EnvConfig(relative_positions=True)
+    td = FormationEnv(8, config=rel, seed=3).reset()
+    absolute = FormationEnv(8, seed=3).reset()["agents", "observation"]
+    expected = formation_rl.load_policy("apf")(absolute)
+    torch.testing.assert_close(formation_rl.load_policy("apf", env_config=rel)(td["agents", "observation"]), expected)
+    assert not torch.allclose(formation_rl.load_policy("apf")(td["agents", "observation"]), expected)
+    with pytest.raises(ValueError, match=r"^env.relative_positions = False is invalid: the policy reads the "
+                                         r"observation layout of relative_positions=True$"):
+        formation_rl.load_policy(ROOT / "pretrained" / "per_matd3_fast.pt", env_config=EnvConfig())

@@ -3,6 +3,8 @@
 import csv
 import json
 import math
+import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +19,7 @@ from formation_rl import diagnose, report
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
 from formation_rl.evaluate import evaluate_policy, mean_ci
-from formation_rl.policy import load_policy
+from formation_rl.policy import load_policy, output_dir
 from formation_rl.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -83,6 +85,69 @@ def test_render_cli_writes_gif_and_figure_10(trained, tmp_path):
     assert (tmp_path / "trajectories.png").stat().st_size > 10_000 and (tmp_path / "episode.gif").exists()
     out = _cli("formation_rl.visualize", f"ckpt={trained}", "steps=[500]", f"out={tmp_path}")
     assert out.returncode == 2 and "steps = [500] is invalid" in out.stderr
+
+
+@pytest.mark.parametrize("module, args", [("formation_rl.evaluate", ["ckpt=apf", "episodes=1", "out={out}"]),
+                                          ("formation_rl.visualize", ["ckpt=apf", "out={out}"]),
+                                          ("formation_rl.rollout", [])])
+def test_unavailable_device_is_one_line_error_before_any_work(module, args, tmp_path):
+    """`make eval|render|demo ARGS="device=cuda"` without the GPU: the one-line error training gives, no traceback."""
+    args = [a.format(out=tmp_path / "out") for a in args]
+    out = _cli(module, *args, "device=cuda:99", f"hydra.run.dir={tmp_path}/run")
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr[-2000:]
+    assert out.stderr.startswith("error: device = 'cuda:99' is invalid: must be cpu")
+    assert not (tmp_path / "out").exists() and not (tmp_path / "run").exists()
+
+
+def test_device_check_is_the_one_of_training(monkeypatch):
+    from formation_rl.cli import check_device
+    from formation_rl.config import TrainConfig, validate
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    message = "device = 'cuda' is invalid: must be cpu here: CUDA is not available on this machine"
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        check_device("cuda")
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        validate(TrainConfig(device="cuda"))
+    with pytest.raises(ValueError, match=r"^device = 'gpu' is invalid: must be cpu, cuda or cuda:<index>$"):
+        check_device("gpu")
+    check_device("cpu")
+
+
+def _cli_in(cwd, module, *args):
+    """The command run from another directory (a user's project), importing this checkout."""
+    return subprocess.run([sys.executable, "-m", module, *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=600, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def test_eval_and_render_write_under_outputs_never_beside_the_checkpoint(tmp_path):
+    """`make eval|render CKPT=pretrained/...` wrote into pretrained/ (both the same metrics.json): now
+    outputs/eval/<name> and outputs/render/<name>, titled with what the policy is."""
+    shipped = tmp_path / "pretrained"
+    shipped.mkdir()
+    shutil.copy(ROOT / "pretrained" / "per_matd3_fast.pt", shipped / "fast.pt")
+    out = _cli_in(tmp_path, "formation_rl.evaluate", "ckpt=pretrained/fast.pt", "episodes=2", "num_envs=2")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "per_matd3 residual=apf on 2 held-out episodes" in out.stdout
+    assert json.loads((tmp_path / "outputs/eval/fast/metrics.json").read_text())["eval"]["policy"] == \
+        "per_matd3 residual=apf"
+    out = _cli_in(tmp_path, "formation_rl.visualize", "ckpt=pretrained/fast.pt", "gif=false", "steps=[10]")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert (tmp_path / "outputs/render/fast/trajectories.png").is_file()
+    assert [p.name for p in shipped.iterdir()] == ["fast.pt"]
+    # and no empty timestamped Hydra directory beside them
+    assert sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "outputs").rglob("*") if p.is_dir()) == \
+        ["outputs/eval", "outputs/eval/fast", "outputs/render", "outputs/render/fast"]
+
+
+def test_default_output_directory_names_the_checkpoint_or_run(tmp_path):
+    run = tmp_path / "2026-01-01_00-00-00_seed0"
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "checkpoints" / "policy.pt").touch()
+    assert output_dir("eval", run) == Path("outputs/eval/2026-01-01_00-00-00_seed0")
+    assert output_dir("render", run / "checkpoints" / "last.pt") == Path("outputs/render/2026-01-01_00-00-00_seed0")
+    assert output_dir("eval", ROOT / "pretrained" / "per_matd3.pt") == Path("outputs/eval/per_matd3")
+    assert output_dir("render", "apf") == Path("outputs/render/apf")
 
 
 def synthetic_run(root: Path, algo: str, seed: int, final: dict, slope: float) -> Path:
@@ -179,6 +244,24 @@ def test_report_table_from_evaluation_directories(tmp_path):
     assert report.main([str(tmp_path / "runs")]) == 0
     rows = list(csv.DictReader((tmp_path / "runs" / "table1.csv").open()))
     assert len(rows) == 1 and rows[0]["seeds"] == "1" and float(rows[0]["CBRO"]) == pytest.approx(9.0)
+    # so is make eval's default outputs/eval/<run>, which records the run's checkpoint
+    other = synthetic_run(tmp_path / "runs2", "matd3", 0, base, 1.0)
+    kept = evaluation_dir(tmp_path / "eval", other.name, "matd3", "hybrid", {**base, "CBRO": 7.0})
+    record = json.loads((kept / "metrics.json").read_text())
+    record["eval"]["ckpt"] = str(other / "checkpoints" / "policy.pt")
+    (kept / "metrics.json").write_text(json.dumps(record))
+    assert report.main([str(tmp_path / "runs2"), str(tmp_path / "eval"), "--out", str(figures)]) == 0
+    rows = list(csv.DictReader((figures / "table1.csv").open()))
+    assert len(rows) == 1 and rows[0]["seeds"] == "1" and float(rows[0]["CBRO"]) == pytest.approx(7.0)
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="no make")
+def test_make_tensorboard_passes_args():
+    """`make tensorboard ARGS="--port 6100"` ignored ARGS."""
+    out = subprocess.run(["make", "-n", "tensorboard", "RUNS=outputs/train", "ARGS=--port 6100"], cwd=ROOT,
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert any(line.endswith("/bin/tensorboard --logdir outputs/train --port 6100") for line in out.stdout.splitlines())
 
 
 def test_report_names_groups_of_numbers_and_flags_by_their_key():

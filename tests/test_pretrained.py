@@ -38,3 +38,18 @@ def test_fast_policy_loads_with_its_world_and_keeps_its_success_on_50_held_out_e
     per = evaluate_policy(policy.module, policy.env_config, 50, 50, progress=False)
     assert abs(per["success"].mean().item() - FAST_CLAIMED_SUCCESS) <= FAST_TOLERANCE
     assert per["CBRO"].mean() < 2.37
+
+
+def test_loaded_policy_is_a_torchrl_policy_and_rolls_outside_no_grad():
+    """The issue's `env.rollout(150, policy=policy.module)` outside no_grad crashed in the world; the Policy
+    itself is a TorchRL policy too, and says what it is."""
+    from formation_rl.envs import FormationEnv
+
+    policy = formation_rl.load_policy(ROOT / "pretrained" / "per_matd3_fast.pt")
+    assert policy.label == "per_matd3 residual=apf"
+    itself = FormationEnv(2, config=policy.env_config, seed=0).rollout(150, policy=policy)
+    module = FormationEnv(2, config=policy.env_config, seed=0).rollout(150, policy=policy.module)
+    assert module["agents", "action"].requires_grad  # the actor's graph, which the environment detached
+    assert itself["agents", "action"].shape == (2, 150, 5, 2)
+    torch.testing.assert_close(itself["agents", "action"], module["agents", "action"].detach())
+    assert formation_rl.load_policy(ROOT / "pretrained" / "per_matd3.pt").label == "per_matd3"

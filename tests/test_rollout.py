@@ -29,6 +29,7 @@ def test_cli_end_to_end(tmp_path):
     out = _cli("num_envs=2", "env.max_steps=5", "gif=false", f"hydra.run.dir={tmp_path}")
     assert out.returncode == 0, out.stderr
     assert "CBRO" in out.stdout and (tmp_path / "metrics.json").exists()
+    assert "CBRO" in (tmp_path / "rollout.log").read_text()  # the job's log holds its summary
 
 
 def test_cli_bad_input_fails_before_work(tmp_path):

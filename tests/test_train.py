@@ -2,6 +2,7 @@
 
 import copy
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -169,6 +170,8 @@ def test_cli_tiny_run_and_errors(tmp_path):
                f"hydra.run.dir={tmp_path}")
     assert out.returncode == 0, out.stderr[-2000:]
     assert "final evaluation" in out.stdout and json.loads((tmp_path / "metrics.json").read_text())["length"] == 25
+    log = (tmp_path / "train.log").read_text()  # was empty: the summary is logged, not printed
+    assert "final evaluation" in log and "run directory" in log
     bad = _cli("algo=ppo", f"hydra.run.dir={tmp_path}/x")
     assert bad.returncode != 0 and "maddpg" in bad.stderr and "per_matd3" in bad.stderr
     bad = _cli("algo.lr_actor=-1", f"hydra.run.dir={tmp_path}/y")
@@ -177,6 +180,18 @@ def test_cli_tiny_run_and_errors(tmp_path):
     assert bad.returncode == 2 and "algo.buffer_size = 1000 is invalid: must be >= algo.batch_size (2048)" in bad.stderr
     bad = _cli("algo.lr_actr=0.1", f"hydra.run.dir={tmp_path}/w")
     assert bad.returncode != 0 and "lr_actr" in bad.stderr
+
+
+@pytest.mark.parametrize("module, args", [("formation_rl.train", ["algo=apf"]),
+                                          ("formation_rl.evaluate", ["ckpt=nonexistent.pt"]),
+                                          ("formation_rl.visualize", []),
+                                          ("formation_rl.rollout", ["episodes=0"])])
+def test_refused_calls_leave_no_run_directory(module, args, tmp_path):
+    """A refused call left an empty timestamped run directory (outputs/train/apf/<date>/ for algo=apf)."""
+    out = subprocess.run([sys.executable, "-m", module, *args], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert out.returncode == 2 and out.stderr.startswith("error: "), out.stderr[-2000:]
+    assert not (tmp_path / "outputs").exists(), sorted(map(str, tmp_path.rglob("*")))
 
 
 @pytest.mark.slow

@@ -23,7 +23,8 @@ class FormationEnv(EnvBase):
     One agent group ``"agents"`` of N robots (index 0 the leader): ``("agents", "observation")``
     ``[B, N, D]``, ``("agents", "action")`` ``[B, N, 2]`` in [-1, 1], ``("agents", "reward")``
     ``[B, N, 1]``; root ``done``/``terminated``/``truncated`` ``[B, 1]``; the world under ``"state"``
-    and the per-step diagnostics of SPEC §6 at the root.
+    and the per-step diagnostics of SPEC §6 at the root. Actions may require grad (a policy called
+    outside ``torch.no_grad()``): the step detaches them, the world is not differentiable.
 
     ``compile_physics=True`` runs the step's tensor program (dynamics, rewards, observations) through
     ``torch.compile``: faster per step at large B on CPU, after a compilation of about 30 s on the
@@ -160,7 +161,8 @@ class FormationEnv(EnvBase):
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         w = self._world
-        action = tensordict.get(("agents", "action"))
+        # the world does not backpropagate: actions that carry gradients (a policy outside no_grad) are detached
+        action = tensordict.get(("agents", "action")).detach()
         w["pos"], w["vel"], measured = self._advance(w["pos"], w["vel"], action, w["goal"], w["centers"], w["radii"])
         self._steps += 1
         out = self._pack(measured, rewards=True)

@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
+from matplotlib.text import Text  # noqa: E402
 from tensordict import TensorDictBase  # noqa: E402
 
 from formation_rl.envs import formations  # noqa: E402
@@ -83,8 +84,9 @@ def rollout_states(rollout: TensorDictBase, index: int = 0) -> list[TensorDictBa
 
 
 def save_gif(rollout: TensorDictBase, path: str | Path, cfg: EnvConfig, index: int = 0, fps: int = 15,
-             size: float = 4.0, dpi: int = 60) -> Path:
-    """Write copy ``index`` of a rollout (``[B, T]`` or ``[T]``) to an animated GIF."""
+             size: float = 4.0, dpi: int = 120) -> Path:
+    """Write copy ``index`` of a rollout (``[B, T]`` or ``[T]``) to an animated GIF, ``size * dpi`` pixels
+    square (480 by default)."""
     import imageio.v2 as imageio
 
     path = Path(path)
@@ -118,6 +120,29 @@ def collisions(positions: torch.Tensor, state: TensorDictBase, cfg: EnvConfig) -
     return (q["robot_hit"] | q["obstacle_hit"]).T.cpu().numpy()
 
 
+def label_steps(ax, anchors: list[tuple[int, np.ndarray]], fontsize: float = 9) -> list:
+    """``step t`` labels by the points ``anchors`` (``(t, xy)``, the leader at step t), each moved to the first
+    of a ring of offsets where it overlaps no earlier label (a team that waits sends them all to one
+    point), with a thin line back to its point. Returns the text artists."""
+    ax.apply_aspect()  # the axes' final place, so that the points are where they will be drawn
+    renderer = ax.figure.canvas.get_renderer()
+    offsets = [(8, 8), (8, -20), (-62, 8), (-62, -20)] + [(8, 8 + 16 * k) for k in range(1, 40)]
+    placed, texts = [], []
+    for t, xy in anchors:
+        for dx, dy in offsets:
+            text = ax.annotate(f"step {t}", xy, xytext=(dx, dy), textcoords="offset points", fontsize=fontsize,
+                               zorder=8, bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none", "alpha": 0.8},
+                               arrowprops={"arrowstyle": "-", "lw": 0.5, "color": "#555555"})
+            text.update_positions(renderer)
+            box = Text.get_window_extent(text, renderer).padded(2)  # the words, not the line to the point
+            if not any(box.overlaps(other) for other in placed):
+                break
+            text.remove()
+        placed.append(box)
+        texts.append(text)
+    return texts
+
+
 def plot_trajectories(rollout: TensorDictBase, cfg: EnvConfig, path: str | Path, index: int = 0,
                       steps: tuple[int, ...] = (10, 35, 95, 120), title: str | None = None) -> Path:
     """Figure 10 of the paper: each robot's path, the team and its active formation at ``steps``,
@@ -134,13 +159,14 @@ def plot_trajectories(rollout: TensorDictBase, cfg: EnvConfig, path: str | Path,
             p.set_alpha(0.3)
         for i in range(n):
             ax.plot(pos[:, i, 0], pos[:, i, 1], color=colors[i], lw=1.0, alpha=0.8, zorder=4)
-        for t in [t for t in steps if t < len(pos)]:
+        shown = [t for t in steps if t < len(pos)]
+        for t in shown:
             step_state = states[t]
             for i, j in torch.nonzero(active_pairs(step_state["positions"].cpu(), cfg)).tolist():
                 ax.plot(*zip(pos[t, i], pos[t, j], strict=True), color="black", lw=0.8, zorder=6)
             for i in range(n):
                 ax.add_patch(plt.Circle(pos[t, i], cfg.robot_radius, color=colors[i], zorder=7))
-            ax.annotate(f"step {t}", pos[t, 0] + np.array([0.15, 0.15]), fontsize=8, zorder=8)
+        label_steps(ax, [(t, pos[t, 0]) for t in shown])
         hits = collisions(torch.as_tensor(pos[1:]), first, cfg)  # [T, N], the states after each step
         tt, ii = np.nonzero(hits)
         if len(tt):

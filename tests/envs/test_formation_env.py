@@ -215,3 +215,18 @@ def test_start_anywhere_spreads_training_starts_and_zero_keeps_the_spec_square()
     assert not env.reset()["obstacle_collision"].any()
     with pytest.raises(ValueError, match=r"^start_anywhere = 2 is invalid: must be a number in \[0, 1\]"):
         FormationEnv(1, start_anywhere=2)
+
+
+def test_actions_that_require_grad_are_detached_by_the_step():
+    """A policy outside torch.no_grad() gives actions with a graph; the world steps on their values."""
+    weight = torch.full((2,), 0.5, requires_grad=True)
+
+    def policy(td):
+        td.set(("agents", "action"), torch.zeros_like(td["agents", "observation"][..., :2]) + weight)
+        return td
+
+    plain = FormationEnv(3, config=EnvConfig(max_steps=10), seed=4).rollout(10, lambda td: td.set(
+        ("agents", "action"), torch.full_like(td["agents", "observation"][..., :2], 0.5)))
+    graded = FormationEnv(3, config=EnvConfig(max_steps=10), seed=4).rollout(10, policy)
+    assert graded["agents", "action"].requires_grad and not graded["next", "state", "positions"].requires_grad
+    torch.testing.assert_close(graded["next", "state", "positions"], plain["next", "state", "positions"])

@@ -34,6 +34,7 @@ def test_rollout_gif(tmp_path):
     path = save_gif(r, tmp_path / "a.gif", env.config, index=1)
     frames = imageio.mimread(path)
     assert len(frames) == 7  # the reset state and 6 steps
+    assert min(frames[0].shape[:2]) >= 480  # 240 px was too small to read the step in the title
 
 
 def test_figure_collision_marks_follow_the_environment_rule():
@@ -48,3 +49,25 @@ def test_figure_collision_marks_follow_the_environment_rule():
     flags = (r["next", "robot_collision"] | r["next", "obstacle_collision"])[0, :, 0].numpy()
     assert hits.shape == (150, 5) and flags.sum() > 0
     assert (hits.any(1) == flags).all()
+
+
+def test_step_labels_of_a_team_that_waits_do_not_overlap(tmp_path):
+    """Figure 10's "step t" labels sat on top of each other when the leader stood still between snapshots."""
+    import matplotlib.pyplot as plt
+    import torch
+    from matplotlib.text import Text
+
+    from formation_rl.envs.render import label_steps, plot_trajectories
+
+    fig, ax = plt.subplots(figsize=(6, 6), dpi=100)
+    ax.set_xlim(-4, 4)
+    ax.set_ylim(-4, 4)
+    texts = label_steps(ax, [(t, np.array([1.0, 1.0])) for t in (10, 35, 95, 120)])
+    renderer = fig.canvas.get_renderer()
+    boxes = [Text.get_window_extent(t, renderer) for t in texts]
+    assert [t.get_text() for t in texts] == ["step 10", "step 35", "step 95", "step 120"]
+    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    plt.close(fig)
+    env = FormationEnv(1, config=EnvConfig(max_steps=20), seed=0)  # nobody moves: one point for every label
+    still = env.rollout(20, lambda td: td.set(("agents", "action"), torch.zeros(1, 5, 2)))
+    assert plot_trajectories(still, env.config, tmp_path / "f.png", steps=(5, 10, 15, 20)).stat().st_size > 0
