@@ -66,6 +66,8 @@ class AlgoConfig:
     exploration_sigma: float = 0.3  # Gaussian exploration noise on the collection policy, start (choice)
     exploration_sigma_end: float = 0.05  # ... end (choice)
     exploration_anneal: float = 0.5  # fraction of total_frames over which sigma anneals (choice)
+    exploration_eps: float = 0.0  # per robot and step, the chance that a uniform random action replaces the noisy
+    #                               one (TorchRL's EGreedyModule; ours: lets a robot pinned at a wall try moving off)
 
 
 @dataclass
@@ -136,6 +138,7 @@ def validate(cfg: TrainConfig) -> None:
     check(a.exploration_sigma >= a.exploration_sigma_end >= 0, "algo.exploration_sigma", a.exploration_sigma,
           f">= exploration_sigma_end ({a.exploration_sigma_end}) >= 0")
     check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")
+    check(0 <= a.exploration_eps <= 1, "algo.exploration_eps", a.exploration_eps, "in [0, 1]")
     check(len(cfg.model.hidden) >= 1 and all(h >= 1 for h in cfg.model.hidden), "model.hidden", cfg.model.hidden,
           "a non-empty list of positive layer sizes")
     check(cfg.model.residual in ("none", "apf"), "model.residual", cfg.model.residual, "none or apf")

@@ -23,7 +23,7 @@ from torch import nn
 from torchrl.collectors import Collector
 from torchrl.data.postprocs import MultiStep
 from torchrl.envs.utils import ExplorationType, set_exploration_type
-from torchrl.modules import AdditiveGaussianModule
+from torchrl.modules import AdditiveGaussianModule, EGreedyModule
 from torchrl.record.loggers.tensorboard import TensorboardLogger
 from tqdm import tqdm
 
@@ -179,6 +179,10 @@ class Trainer:
             action_key=("agents", "action"), safe=True, device=dev,
         )
         self.explore = TensorDictSequential(self.actor, self.noise)
+        if a.exploration_eps > 0:  # uniform random actions now and then, per robot (constant chance)
+            self.explore.append(EGreedyModule(
+                self.env.full_action_spec_unbatched[("agents", "action")].to(dev), eps_init=a.exploration_eps,
+                eps_end=a.exploration_eps, action_key=("agents", "action"), device=dev))
         self.warmup = None  # algo.warmup_policy=apf: the classical controller (+ the same noise) collects warm-up
         if a.warmup_policy == "apf":
             from formation_rl.controllers import apf_policy

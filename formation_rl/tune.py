@@ -61,10 +61,11 @@ ConfigStore.instance().store(name="tune_schema", node=TuneConfig)
 
 def score(metrics: dict[str, float]) -> float:
     """The study's objective (maximised), a weighted score on validation scenarios:
-    ``success + 0.1 at_goal - 0.01 min(RFSE, 10)`` (fractions in [0, 1], RFSE in m). Success weighs most;
-    the leader's arrival and the formation error give the study a gradient while success is still zero, and
-    can outweigh at most 20 points of success (10 for each)."""
-    return metrics["success"] + 0.1 * metrics["at_goal"] - 0.01 * min(metrics["RFSE"], 10.0)
+    ``success + 0.1 at_goal - 0.01 (min(UDBLT, 10) + min(RFSE, 10))`` (fractions in [0, 1], distances in m).
+    Success weighs most; the leader's arrival, its final distance to the goal and the formation error give
+    the study a gradient while success is still zero, and together outweigh at most 30 points of success."""
+    return (metrics["success"] + 0.1 * metrics["at_goal"]
+            - 0.01 * (min(metrics["UDBLT"], 10.0) + min(metrics["RFSE"], 10.0)))
 
 
 def check_space(space: dict[str, Any]) -> None:
@@ -180,13 +181,13 @@ def summary(study, top: int = 10) -> str:
     keys = sorted({k for t in done for k in t.params})
     lines = [f"# Study `{study.study_name}`", "",
              "Trials: " + ", ".join(f"{v} {k}" for k, v in counts.items() if v), "",
-             "score = success + 0.1 at_goal - 0.01 min(RFSE, 10), on validation scenarios", "",
-             "| # | score | success | at_goal | RFSE | CBRO | " + " | ".join(keys) + " |",
-             "|" + "---|" * (6 + len(keys))]
+             "score = success + 0.1 at_goal - 0.01 (min(UDBLT, 10) + min(RFSE, 10)), on validation scenarios", "",
+             "| # | score | success | at_goal | UDBLT | RFSE | CBRO | CBRS | " + " | ".join(keys) + " |",
+             "|" + "---|" * (8 + len(keys))]
     for t in done[:top]:
         u = t.user_attrs
         cells = [str(t.number), f"{t.value:.3f}", *(f"{u.get(k, math.nan):.3f}" for k in ("success", "at_goal")),
-                 *(f"{u.get(k, math.nan):.2f}" for k in ("RFSE", "CBRO")),
+                 *(f"{u.get(k, math.nan):.2f}" for k in ("UDBLT", "RFSE", "CBRO", "CBRS")),
                  *(_fmt(t.params.get(k)) for k in keys)]
         lines.append("| " + " | ".join(cells) + " |")
     if done:

@@ -318,3 +318,23 @@ def test_fast_budget_composes_to_the_residual_recipe():
     validate(cfg)
     assert cfg.model.residual == "apf" and cfg.algo.actor_init == "random" and cfg.algo.bc_weight > 0
     assert cfg.env.relative_positions and cfg.total_frames == 60_000
+
+
+def test_exploration_eps_replaces_actions_with_uniform_ones_during_collection_only(tmp_path):
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    cfg = tiny()
+    cfg.algo.exploration_eps, cfg.algo.exploration_sigma, cfg.algo.exploration_sigma_end = 0.5, 0.0, 0.0
+    trainer = Trainer(cfg, tmp_path)
+    td = trainer.env.reset()
+    with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
+        noisy = trainer.explore(td.clone())["agents", "action"]
+    with torch.no_grad():
+        clean = trainer.actor(td.clone())["agents", "action"]
+    replaced = (noisy != clean).any(-1).float().mean().item()  # per robot
+    assert 0.2 < replaced < 0.8 and noisy.abs().max() <= 1
+    with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):  # evaluation: the actors alone
+        assert torch.equal(trainer.explore(td.clone())["agents", "action"], clean)
+    cfg.algo.exploration_eps = 1.5
+    with pytest.raises(ValueError, match=r"^algo.exploration_eps = 1.5 is invalid: must be in \[0, 1\]"):
+        Trainer(cfg, tmp_path / "bad")

@@ -20,10 +20,11 @@ def _tune(*args):
 
 
 def test_score_ranks_success_first_then_the_tie_breakers():
-    base = {"success": 0.3, "at_goal": 0.5, "RFSE": 2.0}
-    assert score({**base, "success": 0.51}) > score({**base, "at_goal": 1.0, "RFSE": 0.0})
-    assert score({**base, "at_goal": 0.6}) > score(base) > score({**base, "RFSE": 3.0})
-    assert score({**base, "RFSE": 50.0}) == score({**base, "RFSE": 10.0})  # capped
+    base = {"success": 0.3, "at_goal": 0.5, "RFSE": 2.0, "UDBLT": 1.0}
+    assert score({**base, "success": 0.61}) > score({**base, "at_goal": 1.0, "RFSE": 0.0, "UDBLT": 0.0})
+    assert score({**base, "at_goal": 0.6}) > score(base) > score({**base, "RFSE": 3.0}) > score({**base, "RFSE": 3.0,
+                                                                                              "UDBLT": 2.0})
+    assert score({**base, "RFSE": 50.0, "UDBLT": 20.0}) == score({**base, "RFSE": 10.0, "UDBLT": 10.0})  # capped
 
 
 def test_space_errors_name_the_key():
