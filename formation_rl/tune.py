@@ -146,19 +146,22 @@ def objective(trial, cfg: TuneConfig) -> float:
     return score(metrics)
 
 
-def run_worker(cfg_dict: dict) -> int:
-    """One worker: pull trials from the shared study until it holds ``trials`` finished or pruned ones."""
+def run_worker(cfg_dict: dict, worker: int = 0) -> int:
+    """One worker: pull trials from the shared study until it holds ``trials`` finished or pruned ones.
+
+    Each worker seeds its sampler with ``seed + worker``: the same seed everywhere would have every
+    worker draw the same first (random) trials."""
     from optuna.study import MaxTrialsCallback
     from optuna.trial import TrialState
 
     cfg = OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(TuneConfig), cfg_dict))
-    study = load_study(cfg)
+    study = load_study(cfg, worker)
     study.optimize(lambda t: objective(t, cfg), catch=(),
                    callbacks=[MaxTrialsCallback(cfg.trials, states=(TrialState.COMPLETE, TrialState.PRUNED))])
     return len(study.trials)
 
 
-def load_study(cfg: TuneConfig):
+def load_study(cfg: TuneConfig, worker: int = 0):
     import optuna
 
     # a worker killed mid-trial stops its heartbeat: the trial is marked failed and retried once
@@ -167,7 +170,7 @@ def load_study(cfg: TuneConfig):
         heartbeat_stale_trial_callback=optuna.storages.RetryHeartbeatStaleTrialCallback(1))
     return optuna.create_study(
         study_name=cfg.study, storage=storage, direction="maximize", load_if_exists=True,
-        sampler=optuna.samplers.TPESampler(seed=cfg.seed, n_startup_trials=8, multivariate=True),
+        sampler=optuna.samplers.TPESampler(seed=cfg.seed + worker, n_startup_trials=8, multivariate=True),
         pruner=optuna.pruners.MedianPruner(n_startup_trials=6, n_warmup_steps=1),
     )
 
@@ -229,7 +232,7 @@ def main(dcfg: DictConfig) -> None:
     plain = dataclasses.asdict(cfg)
     from formation_rl.tune import run_worker as worker  # by reference: this file may be running as __main__
 
-    jobs = [executor.submit(worker, plain) for _ in range(cfg.workers)]
+    jobs = [executor.submit(worker, plain, k) for k in range(cfg.workers)]
     for job in jobs:
         try:
             job.result()

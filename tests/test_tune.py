@@ -41,6 +41,7 @@ def test_study_runs_two_workers_resumes_and_writes_a_summary(tmp_path):
     study = optuna.load_study(study_name="recipe", storage=f"sqlite:///{tmp_path}/recipe.db")
     done = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
     assert len(done) >= 2 and all(0 <= t.user_attrs["success"] <= 1 for t in done)
+    assert done[0].params != done[1].params  # the workers' samplers are seeded apart
     assert all(Path(t.user_attrs["run_dir"], "metrics.json").is_file() for t in done)
     summary = (tmp_path / "recipe" / "summary.md").read_text()
     assert "| # | score |" in summary and "Best parameters" in summary
