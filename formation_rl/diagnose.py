@@ -10,6 +10,7 @@ kind is timed. Prints a table per controller and writes ``failures.json`` and
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 from pathlib import Path
@@ -17,10 +18,12 @@ from pathlib import Path
 import torch
 from tensordict import TensorDictBase
 
+from formation_rl.envs import EnvConfig
 from formation_rl.envs.metrics import episode_metrics
 from formation_rl.evaluate import EVAL_SEED, evaluate_policy
 
-PARTS = ("success", "at_goal", "no_robot_collision", "no_obstacle_collision")
+PARTS = ("success", "at_goal", "no_robot_collision", "no_obstacle_collision", "leader_at_wall", "saturated_actions")
+WALL = 0.05  # m: a leader whose centre ends this close to the arena's edge ends at a wall
 # first-collision windows, in steps after the reset (each step 0.1 s at the default dt)
 BINS = ((1, 5), (6, 10), (11, 20), (21, 50), (51, 100), (101, 150))
 
@@ -37,12 +40,21 @@ def last_step(flags: torch.Tensor) -> torch.Tensor:
     return torch.where(flags.any(1), last, torch.zeros_like(last))
 
 
-def failure_metrics(rollout: TensorDictBase, goal_radius: float) -> dict[str, torch.Tensor]:
+def failure_metrics(rollout: TensorDictBase, goal_radius: float, edge: float | None = None) -> dict[str, torch.Tensor]:
     """:func:`episode_metrics` of a from-reset ``[B, T]`` rollout plus the steps of each episode's first
-    robot-robot and robot-obstacle collision and of its last robot-robot collision (0: none)."""
+    robot-robot and robot-obstacle collision and of its last robot-robot collision (0: none), whether the
+    leader ends at a wall (within ``WALL`` of ``edge``, the farthest a centre goes: arena_half_size -
+    robot_radius, the SPEC's by default) and the share of saturated action components (|a| > 0.99)."""
     robot, obstacle = rollout["next", "robot_collision"][..., 0], rollout["next", "obstacle_collision"][..., 0]
+    leader = rollout["next", "state", "positions"][:, -1, 0]  # [B, 2] at the last step
+    if edge is None:
+        spec = EnvConfig()
+        edge = spec.arena_half_size - spec.robot_radius
     return {
         **episode_metrics(rollout, goal_radius),
+        # where deterministic policies get stuck: pushing into a wall zeroes the velocity (SPEC §1)
+        "leader_at_wall": (leader.abs().amax(-1) >= edge - WALL).double(),
+        "saturated_actions": (rollout["agents", "action"].abs() > 0.99).double().mean((1, 2, 3)),
         "first_robot_collision": first_step(robot).double(),
         "last_robot_collision": last_step(robot).double(),
         "first_obstacle_collision": first_step(obstacle).double(),
@@ -91,7 +103,13 @@ def format_rows(name: str, b: dict[str, float]) -> str:
             f"robot-robot collision {100 * b['no_robot_collision']:.1f}% x no obstacle collision "
             f"{100 * b['no_obstacle_collision']:.1f}% (jointly)\n"
             f"  first robot-robot collision by step: {windows}\n"
-            f"  robot-robot collisions only in the first 20 steps: {100 * b['robot_collision_only_in_first_20']:.1f}%")
+            f"  robot-robot collisions only in the first 20 steps: {100 * b['robot_collision_only_in_first_20']:.1f}%\n"
+            f"  leader ends at a wall: {100 * b['leader_at_wall']:.1f}%; saturated action components (|a| > 0.99): "
+            f"{100 * b['saturated_actions']:.1f}%")
+
+
+def _edge(cfg: EnvConfig) -> float:
+    return cfg.arena_half_size - cfg.robot_radius
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -108,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError(f"--episodes = {args.episodes} is invalid: must be an integer >= 1")
         policies = {c: load_policy(c) for c in args.ckpts}  # every path checked before any rollout
         results = {c: evaluate_policy(p.module, p.env_config, args.episodes, 1000, args.seed, "cpu",
-                                      metrics=failure_metrics) for c, p in policies.items()}
+                                      metrics=functools.partial(failure_metrics, edge=_edge(p.env_config)))
+                   for c, p in policies.items()}
         out = Path(args.out)
         try:
             out.mkdir(parents=True, exist_ok=True)

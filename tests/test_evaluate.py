@@ -335,3 +335,18 @@ def test_diagnose_splits_success_and_times_collisions(tmp_path, capsys):
     assert (tmp_path / "first_collision.png").stat().st_size > 0 and "at the goal" in capsys.readouterr().out
     assert diagnose.main(["apf", "--episodes", "0"]) == 2
     assert diagnose.main([str(tmp_path / "missing")]) == 2
+
+
+def test_diagnose_finds_a_leader_pinned_at_a_wall():
+    """A policy that pushes every robot east ends with the leader at the arena's edge, actions saturated."""
+    from tensordict.nn import TensorDictModule
+
+    class East(torch.nn.Module):
+        def forward(self, obs):
+            return torch.zeros(*obs.shape[:-1], 2).index_fill_(-1, torch.tensor([0]), 1.0)
+
+    east = TensorDictModule(East(), in_keys=[("agents", "observation")], out_keys=[("agents", "action")])
+    per = evaluate_policy(east, EnvConfig(), 8, progress=False, metrics=diagnose.failure_metrics)
+    assert per["leader_at_wall"].tolist() == [1.0] * 8 and per["saturated_actions"].tolist() == [0.5] * 8
+    apf = evaluate_policy(load_policy("apf").module, EnvConfig(), 8, progress=False, metrics=diagnose.failure_metrics)
+    assert apf["leader_at_wall"].sum() == 0
