@@ -1,9 +1,13 @@
 """The levers tried on the gradient step, each against the shipped path in the same process.
 
-    python benchmarks/levers.py [--rounds 4]
+    python benchmarks/levers.py [--rounds 4] [--threads 1] [--precision-only]
 
 Prints the median ms per PER-MATD3 gradient step (N=5, M=4, batch 1024) of the shipped path and
-of each alternative, alternating the two `--rounds` times so that drift hits both alike.
+of each alternative, alternating the two `--rounds` times so that drift hits both alike; then the
+step in fp32 and bf16, with the hand-written ReLU layers (shipped) and with autograd + autocast
+(before), all four alternated, each against the fp32 step before. Besides wall time it reports
+the process's CPU time per step, which a machine shared with other jobs inflates less (with one
+thread it is the step's own compute time).
 """
 
 from __future__ import annotations
@@ -41,8 +45,8 @@ class _FusedAdam(torch.optim.Adam):
         super().__init__(params, fused=True, **kwargs)
 
 
-def _inplace_relu(inplace=False):
-    return nn.ReLU(inplace=True)
+class _AutogradReLU(nn.ReLU):
+    """A ReLU that is not ``nn.ReLU`` itself: the networks fall back to autograd + autocast layers."""
 
 
 LEVERS = {
@@ -51,7 +55,14 @@ LEVERS = {
                                                                      _torchrl_actor_loss),
     "twin critics in a Python loop (deactivate_vmap) instead of vmap": (matd3, "TD3Loss", _LoopTD3Loss),
     "fused Adam instead of foreach Adam": (base.torch.optim, "Adam", _FusedAdam),
-    "in-place ReLU": (networks.ACTIVATIONS, "relu", _inplace_relu),
+    "autograd + autocast layers instead of the hand-written ReLU layers": (networks.ACTIVATIONS, "relu",
+                                                                          _AutogradReLU),
+}
+PRECISION_VARIANTS = {  # label: (precision, patched to the autograd layers)
+    "fp32, autograd layers (before)": ("fp32", True),
+    "fp32, hand-written layers": ("fp32", False),
+    "bf16, autograd layers + autocast (before)": ("bf16", True),
+    "bf16, hand-written layers": ("bf16", False),
 }
 
 
@@ -64,19 +75,47 @@ def _patched(target, name, value):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=4)
+    parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
+    parser.add_argument("--precision-only", action="store_true", help="only the fp32 / bf16 comparison")
     args = parser.parse_args()
+    if args.threads:
+        torch.set_num_threads(args.threads)
     logging.getLogger("torchrl").setLevel(logging.WARNING)
     print(f"# levers, PER-MATD3 gradient step, torch {torch.__version__}, {torch.get_num_threads()} threads\n")
-    print("| alternative | shipped ms | alternative ms | alternative / shipped |")
-    print("|---|---:|---:|---:|")
-    for label, (target, name, value) in LEVERS.items():
-        shipped, alt = [], []
-        for _ in range(args.rounds):
-            shipped.append(tt.grad_step("per_matd3", steps=15)["ms"])
-            with _patched(target, name, value):
-                alt.append(tt.grad_step("per_matd3", steps=15)["ms"])
-        s, a = statistics.median(shipped), statistics.median(alt)
-        print(f"| {label} | {s:.1f} | {a:.1f} | {a / s:.2f} |", flush=True)
+    if not args.precision_only:
+        print("| alternative | shipped ms | alternative ms | alternative / shipped | CPU ms shipped | CPU ms alt. | "
+              "CPU alt. / shipped |")
+        print("|---|---:|---:|---:|---:|---:|---:|")
+        for label, (target, name, value) in LEVERS.items():
+            shipped, alt = [], []
+            for _ in range(args.rounds):
+                shipped.append(tt.grad_step("per_matd3", steps=15))
+                with _patched(target, name, value):
+                    alt.append(tt.grad_step("per_matd3", steps=15))
+            (s, sc), (a, ac) = _medians(shipped), _medians(alt)
+            print(f"| {label} | {s:.1f} | {a:.1f} | {a / s:.2f} | {sc:.1f} | {ac:.1f} | {ac / sc:.2f} |", flush=True)
+        print()
+    precision_table(args.rounds)
+
+
+def _medians(runs: list[dict]) -> tuple[float, float]:
+    return statistics.median(r["ms"] for r in runs), statistics.median(r["cpu_ms"] for r in runs)
+
+
+def precision_table(rounds: int) -> dict[str, tuple[float, float]]:
+    """The step in fp32 and bf16, hand-written layers and autograd ones, alternated ``rounds`` times."""
+    runs: dict[str, list[dict]] = {k: [] for k in PRECISION_VARIANTS}
+    for _ in range(rounds):
+        for label, (precision, before) in PRECISION_VARIANTS.items():
+            with _patched(networks.ACTIVATIONS, "relu", _AutogradReLU if before else nn.ReLU):
+                runs[label].append(tt.grad_step("per_matd3", steps=15, precision=precision))
+    med = {k: _medians(v) for k, v in runs.items()}
+    base, base_cpu = med["fp32, autograd layers (before)"]
+    print("| PER-MATD3 step | ms | / fp32 before | CPU ms | CPU / fp32 before |")
+    print("|---|---:|---:|---:|---:|")
+    for label, (ms, cpu) in med.items():
+        print(f"| {label} | {ms:.1f} | {ms / base:.2f} | {cpu:.1f} | {cpu / base_cpu:.2f} |", flush=True)
+    return med
 
 
 if __name__ == "__main__":
