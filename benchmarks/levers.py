@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import argparse
 import logging
+import random
 import statistics
 import sys
+import time
 from pathlib import Path
 from unittest import mock
 
@@ -102,19 +104,55 @@ def _medians(runs: list[dict]) -> tuple[float, float]:
     return statistics.median(r["ms"] for r in runs), statistics.median(r["cpu_ms"] for r in runs)
 
 
+def _stepper(precision: str, before: bool):
+    """One PER-MATD3 gradient step (sample, update, priority write-back) on a filled buffer, as a closure."""
+    from dataclasses import replace
+
+    from formation_rl.algorithms import make_algorithm
+    from formation_rl.replay import make_replay_buffer
+
+    cfg = tt.make_config("per_matd3")
+    a, n, d = cfg.algo, cfg.env.num_robots, cfg.env.obs_dim
+    torch.manual_seed(0)
+    with _patched(networks.ACTIVATIONS, "relu", _AutogradReLU if before else nn.ReLU):
+        actor, critic = networks.make_actor(n, d, cfg.model.hidden), networks.make_critic(n, d, cfg.model.hidden)
+    networks.set_precision(actor, precision)
+    networks.set_precision(critic, precision)
+    algo = make_algorithm(actor, critic, a)
+    buffer = make_replay_buffer(replace(a, buffer_size=50_000))
+    buffer.extend(tt.random_transitions(50_000, n, d))
+
+    def step():
+        batch = buffer.sample()
+        algo.update(batch)
+        buffer.update_tensordict_priority(batch)
+
+    return step
+
+
 def precision_table(rounds: int) -> dict[str, tuple[float, float]]:
-    """The step in fp32 and bf16, hand-written layers and autograd ones, alternated ``rounds`` times."""
-    runs: dict[str, list[dict]] = {k: [] for k in PRECISION_VARIANTS}
-    for _ in range(rounds):
-        for label, (precision, before) in PRECISION_VARIANTS.items():
-            with _patched(networks.ACTIVATIONS, "relu", _AutogradReLU if before else nn.ReLU):
-                runs[label].append(tt.grad_step("per_matd3", steps=15, precision=precision))
-    med = {k: _medians(v) for k, v in runs.items()}
+    """The step in fp32 and bf16, hand-written layers and autograd ones: all four built once, then
+    ``8 * rounds`` rounds in a shuffled order, each timing 3 blocks of 2 steps (one with the actor
+    step) after 2 untimed ones; medians of the blocks."""
+    steppers = {k: _stepper(*v) for k, v in PRECISION_VARIANTS.items()}
+    wall: dict[str, list[float]] = {k: [] for k in steppers}
+    cpu: dict[str, list[float]] = {k: [] for k in steppers}
+    rng = random.Random(0)
+    for _ in range(8 * rounds):
+        for label in rng.sample(list(steppers), len(steppers)):
+            step = steppers[label]
+            step(), step()
+            for _ in range(3):
+                t, c = time.perf_counter(), time.process_time()
+                step(), step()
+                wall[label].append((time.perf_counter() - t) * 1e3 / 2)
+                cpu[label].append((time.process_time() - c) * 1e3 / 2)
+    med = {k: (statistics.median(wall[k]), statistics.median(cpu[k])) for k in steppers}
     base, base_cpu = med["fp32, autograd layers (before)"]
     print("| PER-MATD3 step | ms | / fp32 before | CPU ms | CPU / fp32 before |")
     print("|---|---:|---:|---:|---:|")
-    for label, (ms, cpu) in med.items():
-        print(f"| {label} | {ms:.1f} | {ms / base:.2f} | {cpu:.1f} | {cpu / base_cpu:.2f} |", flush=True)
+    for label, (ms, c) in med.items():
+        print(f"| {label} | {ms:.1f} | {ms / base:.2f} | {c:.1f} | {c / base_cpu:.2f} |", flush=True)
     return med
 
 
