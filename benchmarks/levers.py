@@ -1,17 +1,23 @@
 """The levers tried on the gradient step, each against the shipped path in the same process.
 
-    python benchmarks/levers.py [--rounds 4]
+    python benchmarks/levers.py [--rounds 4] [--threads 1] [--precision-only]
 
 Prints the median ms per PER-MATD3 gradient step (N=5, M=4, batch 1024) of the shipped path and
-of each alternative, alternating the two `--rounds` times so that drift hits both alike.
+of each alternative, alternating the two `--rounds` times so that drift hits both alike; then the
+step in fp32 and bf16, with the hand-written ReLU layers (shipped) and with autograd + autocast
+(before), all four alternated, each against the fp32 step before. Besides wall time it reports
+the process's CPU time per step, which a machine shared with other jobs inflates less (with one
+thread it is the step's own compute time).
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import random
 import statistics
 import sys
+import time
 from pathlib import Path
 from unittest import mock
 
@@ -41,8 +47,8 @@ class _FusedAdam(torch.optim.Adam):
         super().__init__(params, fused=True, **kwargs)
 
 
-def _inplace_relu(inplace=False):
-    return nn.ReLU(inplace=True)
+class _AutogradReLU(nn.ReLU):
+    """A ReLU that is not ``nn.ReLU`` itself: the networks fall back to autograd + autocast layers."""
 
 
 LEVERS = {
@@ -51,7 +57,14 @@ LEVERS = {
                                                                      _torchrl_actor_loss),
     "twin critics in a Python loop (deactivate_vmap) instead of vmap": (matd3, "TD3Loss", _LoopTD3Loss),
     "fused Adam instead of foreach Adam": (base.torch.optim, "Adam", _FusedAdam),
-    "in-place ReLU": (networks.ACTIVATIONS, "relu", _inplace_relu),
+    "autograd + autocast layers instead of the hand-written ReLU layers": (networks.ACTIVATIONS, "relu",
+                                                                          _AutogradReLU),
+}
+PRECISION_VARIANTS = {  # label: (precision, patched to the autograd layers)
+    "fp32, autograd layers (before)": ("fp32", True),
+    "fp32, hand-written layers": ("fp32", False),
+    "bf16, autograd layers + autocast (before)": ("bf16", True),
+    "bf16, hand-written layers": ("bf16", False),
 }
 
 
@@ -64,19 +77,83 @@ def _patched(target, name, value):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=4)
+    parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
+    parser.add_argument("--precision-only", action="store_true", help="only the fp32 / bf16 comparison")
     args = parser.parse_args()
+    if args.threads:
+        torch.set_num_threads(args.threads)
     logging.getLogger("torchrl").setLevel(logging.WARNING)
     print(f"# levers, PER-MATD3 gradient step, torch {torch.__version__}, {torch.get_num_threads()} threads\n")
-    print("| alternative | shipped ms | alternative ms | alternative / shipped |")
-    print("|---|---:|---:|---:|")
-    for label, (target, name, value) in LEVERS.items():
-        shipped, alt = [], []
-        for _ in range(args.rounds):
-            shipped.append(tt.grad_step("per_matd3", steps=15)["ms"])
-            with _patched(target, name, value):
-                alt.append(tt.grad_step("per_matd3", steps=15)["ms"])
-        s, a = statistics.median(shipped), statistics.median(alt)
-        print(f"| {label} | {s:.1f} | {a:.1f} | {a / s:.2f} |", flush=True)
+    if not args.precision_only:
+        print("| alternative | shipped ms | alternative ms | alternative / shipped | CPU ms shipped | CPU ms alt. | "
+              "CPU alt. / shipped |")
+        print("|---|---:|---:|---:|---:|---:|---:|")
+        for label, (target, name, value) in LEVERS.items():
+            shipped, alt = [], []
+            for _ in range(args.rounds):
+                shipped.append(tt.grad_step("per_matd3", steps=15))
+                with _patched(target, name, value):
+                    alt.append(tt.grad_step("per_matd3", steps=15))
+            (s, sc), (a, ac) = _medians(shipped), _medians(alt)
+            print(f"| {label} | {s:.1f} | {a:.1f} | {a / s:.2f} | {sc:.1f} | {ac:.1f} | {ac / sc:.2f} |", flush=True)
+        print()
+    precision_table(args.rounds)
+
+
+def _medians(runs: list[dict]) -> tuple[float, float]:
+    return statistics.median(r["ms"] for r in runs), statistics.median(r["cpu_ms"] for r in runs)
+
+
+def _stepper(precision: str, before: bool):
+    """One PER-MATD3 gradient step (sample, update, priority write-back) on a filled buffer, as a closure."""
+    from dataclasses import replace
+
+    from formation_rl.algorithms import make_algorithm
+    from formation_rl.replay import make_replay_buffer
+
+    cfg = tt.make_config("per_matd3")
+    a, n, d = cfg.algo, cfg.env.num_robots, cfg.env.obs_dim
+    torch.manual_seed(0)
+    with _patched(networks.ACTIVATIONS, "relu", _AutogradReLU if before else nn.ReLU):
+        actor, critic = networks.make_actor(n, d, cfg.model.hidden), networks.make_critic(n, d, cfg.model.hidden)
+    networks.set_precision(actor, precision)
+    networks.set_precision(critic, precision)
+    algo = make_algorithm(actor, critic, a)
+    buffer = make_replay_buffer(replace(a, buffer_size=50_000))
+    buffer.extend(tt.random_transitions(50_000, n, d))
+
+    def step():
+        batch = buffer.sample()
+        algo.update(batch)
+        buffer.update_tensordict_priority(batch)
+
+    return step
+
+
+def precision_table(rounds: int) -> dict[str, tuple[float, float]]:
+    """The step in fp32 and bf16, hand-written layers and autograd ones: all four built once, then
+    ``8 * rounds`` rounds in a shuffled order, each timing 3 blocks of 2 steps (one with the actor
+    step) after 2 untimed ones; medians of the blocks."""
+    steppers = {k: _stepper(*v) for k, v in PRECISION_VARIANTS.items()}
+    wall: dict[str, list[float]] = {k: [] for k in steppers}
+    cpu: dict[str, list[float]] = {k: [] for k in steppers}
+    rng = random.Random(0)
+    for _ in range(8 * rounds):
+        for label in rng.sample(list(steppers), len(steppers)):
+            step = steppers[label]
+            step(), step()
+            for _ in range(3):
+                t, c = time.perf_counter(), time.process_time()
+                step(), step()
+                wall[label].append((time.perf_counter() - t) * 1e3 / 2)
+                cpu[label].append((time.process_time() - c) * 1e3 / 2)
+    med = {k: (statistics.median(wall[k]), statistics.median(cpu[k])) for k in steppers}
+    base, base_cpu = med["fp32, autograd layers (before)"]
+    print("| PER-MATD3 step | ms | / fp32 before | CPU ms | CPU / fp32 before |")
+    print("|---|---:|---:|---:|---:|")
+    for label, (ms, c) in med.items():
+        print(f"| {label} | {ms:.1f} | {ms / base:.2f} | {c:.1f} | {c / base_cpu:.2f} |", flush=True)
+    return med
 
 
 if __name__ == "__main__":

@@ -7,16 +7,18 @@ Everything is measured in one process, so the ratios hold even where this machin
 speed drifts from run to run:
 
 1. the fp32 matmul rate (GFLOP/s, the best of 1024^2 and 2048^2 square products): the reference;
-2. per algorithm at the SPEC defaults (N=5, M=4, batch 1024): milliseconds per gradient step
+2. the PER-MATD3 gradient step (below) in fp32 and in bf16 (``precision=bf16``), alternated, each
+   beside the square-matmul rate of its own precision (bf16 only where the CPU multiplies it natively);
+3. per algorithm at the SPEC defaults (N=5, M=4, batch 1024): milliseconds per gradient step
    (replay sampling, critic step, actor step every ``policy_delay``, soft update, priority
    write-back), the step's GEMM FLOPs counted from the layer sizes (:func:`step_flops`),
    achieved GFLOP/s and its ratio to the matmul rate;
-3. per algorithm, a real :class:`~formation_rl.trainer.Trainer` run at the paper's update ratio
+4. per algorithm, a real :class:`~formation_rl.trainer.Trainer` run at the paper's update ratio
    (one gradient step per 100 frames, 64 env copies): frames/s and the split of its wall time
    into env stepping, policy inference, buffer extend/sample, priority update, the update
    (losses, backward, optimisers, soft update), metrics and logging (evaluation excluded, reported
    apart); and the projected wall time of the paper's 9M-frame budget;
-4. scaling in N (robots: 3, 5, 9, 17) and in B (env copies: 1, 64, 1024, 4096), PER-MATD3.
+5. scaling in N (robots: 3, 5, 9, 17) and in B (env copies: 1, 64, 1024, 4096), PER-MATD3.
 
 ``--batch-sweep`` measures only the PER-MATD3 gradient step at replay batches 128 ... 2048 (gradient
 steps/s and samples/s, against batch 1024 in the same process): what a smaller batch buys per second.
@@ -42,7 +44,7 @@ from tensordict import TensorDict
 
 from formation_rl.algorithms import make_algorithm
 from formation_rl.config import TrainConfig
-from formation_rl.models import make_actor, make_critic, set_precision
+from formation_rl.models import bf16_supported, make_actor, make_critic, set_precision
 from formation_rl.replay import make_replay_buffer
 from formation_rl.trainer import Trainer
 
@@ -85,11 +87,11 @@ def joint_layer_share(n: int, obs_dim: int, h1: int, critics: int, delay: int) -
 
 
 # ---------------------------------------------------------------------------------------- timing
-def matmul_rate(repeats: int = 10) -> float:
-    """GFLOP/s of a plain fp32 square matmul, the best of sizes 1024 and 2048 (median of ``repeats``)."""
+def matmul_rate(repeats: int = 10, dtype: torch.dtype = torch.float32) -> float:
+    """GFLOP/s of a plain square matmul in ``dtype``, the best of sizes 1024 and 2048 (median of ``repeats``)."""
     best = 0.0
     for size in (1024, 2048):
-        a, b = torch.randn(size, size), torch.randn(size, size)
+        a, b = torch.randn(size, size, dtype=dtype), torch.randn(size, size, dtype=dtype)
         for _ in range(3):
             a @ b
         times = []
@@ -127,7 +129,9 @@ def grad_step(algo_name: str, n: int = 5, steps: int = 30, batch: int | None = N
     buffer = make_replay_buffer(replace(a, buffer_size=50_000))
     buffer.extend(random_transitions(50_000, n, d))
     parts: dict[str, list[float]] = {"total": [], "sample": [], "update": [], "priority": []}
+    cpu: list[float] = []
     for i in range(steps + 5):
+        c0 = time.process_time()
         t0 = time.perf_counter()
         batch = buffer.sample()
         t1 = time.perf_counter()
@@ -136,12 +140,23 @@ def grad_step(algo_name: str, n: int = 5, steps: int = 30, batch: int | None = N
         if a.prioritized:
             buffer.update_tensordict_priority(batch)
         t3 = time.perf_counter()
+        cpu.append(time.process_time() - c0)
         if i >= 5:  # warm-up steps excluded
             for k, v in (("total", t3 - t0), ("sample", t1 - t0), ("update", t2 - t1), ("priority", t3 - t2)):
                 parts[k].append(v)
     flops = step_flops(n, d, list(cfg.model.hidden), a.batch_size, a.num_critics, a.policy_delay)
-    ms = {k: 1e3 * statistics.median(v) for k, v in parts.items()}
-    return {"ms": ms["total"], "parts_ms": ms, "gflop": flops / 1e9, "gflops": flops / ms["total"] / 1e6}
+    # medians over windows of policy_delay steps (one of them with the actor step): the median of single
+    # steps would pick either kind of step, whichever half it falls in
+    ms = {k: 1e3 * _window_median(v, a.policy_delay) for k, v in parts.items()}
+    # cpu_ms: the process's CPU time per step, which other jobs on the machine inflate less than wall time
+    return {"ms": ms["total"], "parts_ms": ms, "gflop": flops / 1e9, "gflops": flops / ms["total"] / 1e6,
+            "cpu_ms": 1e3 * _window_median(cpu[5:], a.policy_delay), "precision": precision}
+
+
+def _window_median(values: list[float], window: int) -> float:
+    """Median of the means of consecutive ``window``-long runs of ``values``."""
+    means = [sum(values[i : i + window]) / window for i in range(0, len(values) - window + 1, window)]
+    return statistics.median(means)
 
 
 def random_transitions(size: int, n: int, d: int) -> TensorDict:
@@ -226,6 +241,8 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
     parser.add_argument("--batch-sweep", action="store_true",
                         help="only the PER-MATD3 gradient step at batches 128-2048 (steps/s, samples/s vs 1024)")
+    parser.add_argument("--precision", action="store_true",
+                        help="only the matmul rates and the PER-MATD3 step in fp32 and bf16")
     parser.add_argument("--profile", action="store_true",
                         help="only print torch.profiler's top operators of 10 PER-MATD3 gradient steps")
     args = parser.parse_args()
@@ -238,6 +255,9 @@ def main() -> None:
     if args.batch_sweep:
         batch_sweep(8 if args.quick else 30)
         return
+    if args.precision:
+        precision_step(15 if args.quick else 30, 2 if args.quick else 4)
+        return
     steps, scale = (8, 0.25) if args.quick else (30, 1.0)
     out: dict = {"machine": {"cpu": _cpu(), "cores": os.cpu_count(), "threads": torch.get_num_threads(),
                              "torch": torch.__version__, "python": platform.python_version()}}
@@ -247,6 +267,10 @@ def main() -> None:
     say(f"# Training throughput — {out['machine']['cpu']}, {out['machine']['cores']} cores, "
         f"torch {torch.__version__}, {torch.get_num_threads()} threads\n")
     say(f"fp32 matmul rate (reference, same process): {rate:.1f} GFLOP/s\n")
+
+    out["precision"] = precision_step(15 if args.quick else 30, 2 if args.quick else 4, rate)
+    if out["precision"]["bf16"]:
+        out["matmul_gflops_bf16"] = out["precision"]["bf16"]["matmul_gflops"]
 
     say("## Gradient step (N=5, M=4, batch 1024)\n")
     say("| algorithm | ms / step | sample ms | update ms | priority ms | GFLOP / step | GFLOP/s | / matmul |")
@@ -318,6 +342,36 @@ def main() -> None:
         with open(args.json, "w") as f:
             json.dump(out, f, indent=2, default=float)
         say(f"\nJSON: {args.json}")
+
+
+def precision_step(steps: int, rounds: int, fp32_rate: float | None = None) -> dict:
+    """The PER-MATD3 gradient step in fp32 and bf16, alternated ``rounds`` times (medians), beside each
+    precision's square-matmul rate, all in this process; ``bf16`` is ``None`` where the CPU lacks it."""
+    rates = {"fp32": fp32_rate or matmul_rate()}
+    precisions = ["fp32"]
+    if bf16_supported("cpu"):
+        rates["bf16"] = matmul_rate(dtype=torch.bfloat16)
+        precisions.append("bf16")
+    runs: dict[str, list[dict]] = {p: [] for p in precisions}
+    for _ in range(rounds):
+        for p in precisions:
+            runs[p].append(grad_step("per_matd3", steps=steps, precision=p))
+    out: dict = {"bf16": None}
+    print("## Gradient step by precision (PER-MATD3, N=5, M=4, batch 1024; alternated, same process)\n")
+    print("| precision | matmul GFLOP/s | ms / step | CPU ms / step | GFLOP/s | / its matmul | step / fp32 step |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for p in precisions:
+        ms = statistics.median(r["ms"] for r in runs[p])
+        r = {"matmul_gflops": rates[p], "ms": ms, "cpu_ms": statistics.median(r["cpu_ms"] for r in runs[p]),
+             "gflops": runs[p][0]["gflop"] / ms * 1e3}
+        r["vs_fp32"] = ms / out["fp32"]["ms"] if p != "fp32" else 1.0
+        out[p] = r
+        print(f"| {p} | {rates[p]:.1f} | {ms:.1f} | {r['cpu_ms']:.1f} | {r['gflops']:.1f} | "
+              f"{100 * r['gflops'] / rates[p]:.0f}% | {r['vs_fp32']:.2f} |")
+    if out["bf16"] is None:
+        print("| bf16 | - | - | - | - | - | (this CPU has no native bf16) |")
+    print(flush=True)
+    return out
 
 
 def batch_sweep(steps: int) -> None:

@@ -17,3 +17,10 @@ def test_step_flops_by_hand():
     assert bench.step_flops(2, 3, [4], 1, critics=1, delay=1) == 2 * (critic_step + actor_step)
     twin = 2 * (20 + 2 * 44 * 3 + 2 * 4)
     assert bench.step_flops(2, 3, [4], 8, critics=2, delay=2) == 2 * 8 * (twin + actor_step / 2)
+
+
+def test_matmul_rate_in_each_precision():
+    import torch
+
+    assert bench.matmul_rate(repeats=1) > 0
+    assert bench.matmul_rate(repeats=1, dtype=torch.bfloat16) > 0

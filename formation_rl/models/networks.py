@@ -38,6 +38,133 @@ def _hidden_autocast(x: torch.Tensor, dtype: torch.dtype | None):
     return torch.autocast(x.device.type, dtype=dtype or torch.bfloat16, enabled=on)
 
 
+class _ReluLayers(torch.autograd.Function):
+    """Per-robot ReLU layers with a hand-written backward: ``relu(h W_k + b_k)`` for every layer but the
+    last, which is affine and runs in the weights' dtype (fp32).
+
+    Why by hand, when autograd and autocast give the same values: under TorchRL's vmap over the twin
+    critics each ``baddbmm`` splits into a ``bmm`` and a bias add, autocast casts every weight on every
+    call, and the critic's input is copied per twin; here each hidden layer is one ``baddbmm`` (bias
+    fused) and an in-place ReLU, its backward a ``threshold_backward`` and two ``bmm``s, and the vmap rule
+    folds the twins into the robot dimension (one GEMM for both critics, one joint input for both).
+    Hidden layers compute in ``dtype`` (bf16 under ``precision=bf16``; ``None``: the input's dtype);
+    gradients of the fp32 weights come back in fp32.
+
+    Two modes. Actor (``action is None``): ``x`` is robot-major ``[G, B, in]``. Critic: ``x`` is the
+    observations ``[B, N, D]`` and ``action`` the actions ``[B, N, 2]``; every group (critic) reads the
+    joint input ``[o_1..o_N, a_1..a_N]`` (one GEMM for all of them), and the actions' gradient flows into
+    critic g through its own action's rows only (``a_{g mod N}``, see :class:`CentralizedCritic`).
+    Returns ``(out [G, B, out], *saved)``; ``saved`` are kept for the backward only.
+    """
+
+    @staticmethod
+    def forward(x, action, num_robots, dtype, *params):
+        n_layers = len(params) // 2
+        weights, biases = params[:n_layers], params[n_layers:]
+        if action is not None:  # the joint input, and a column of ones that carries the first layer's bias
+            x = torch.cat([x.reshape(x.shape[0], -1), action.reshape(action.shape[0], -1), x.new_ones(x.shape[0], 1)],
+                          -1)  # [B, N*D + 2N + 1]
+        h = x.to(dtype) if dtype not in (None, x.dtype) else x.view_as(x)  # (a view: autograd saves no input as-is)
+        saved = [h]
+        for w, b in zip(weights[:-1], biases[:-1], strict=True):
+            w, b = w.to(h.dtype), b.to(h.dtype)
+            if h.dim() == 2:  # the joint input: [B, in + 1] @ [in + 1, G*H], all groups' weights side by side
+                g, _, out = w.shape
+                h = torch.mm(h, torch.cat([w, b], 1).permute(1, 0, 2).reshape(-1, g * out))  # bias: no extra pass
+                h = h.view(-1, g, out).transpose(0, 1)
+            else:
+                h = torch.baddbmm(b, h, w)
+            saved.append(h.relu_())
+        last = h.to(weights[-1].dtype)
+        if last.dtype != h.dtype:  # the fp32 copy of the last hidden layer, for the last weights' gradient
+            saved.append(last)
+        return (torch.baddbmm(biases[-1], last, weights[-1]), *saved)
+
+    @staticmethod
+    def setup_context(ctx, inputs, output):
+        x, action, num_robots, dtype, *params = inputs
+        n_layers = len(params) // 2
+        ctx.num_robots, ctx.critic = num_robots, action is not None
+        ctx.obs_shape = x.shape
+        ctx.extra = len(output) - 1 - n_layers  # 1: the fp32 copy of the last hidden layer is saved
+        ctx.mark_non_differentiable(*output[1:])
+        ctx.set_materialize_grads(False)  # (the saved outputs get no gradient: no zero tensors for them)
+        ctx.save_for_backward(*params[:n_layers], *output[1:])
+
+    @staticmethod
+    def backward(ctx, grad_out, *_):
+        saved = ctx.saved_tensors
+        n_layers = (len(saved) + 1 - ctx.extra) // 2
+        if grad_out is None:
+            return (None,) * (4 + 2 * n_layers)
+        weights, acts = saved[:n_layers], saved[n_layers : 2 * n_layers]
+        last = saved[-1] if ctx.extra else acts[-1]
+        low, w_last = acts[-1].dtype, weights[-1]
+        grad_w, grad_b = [None] * n_layers, [None] * n_layers
+        grad_w[-1] = torch.bmm(grad_out.transpose(1, 2), last).transpose(1, 2)  # (this side: no transposed copy)
+        grad_b[-1] = grad_out.sum(1, keepdim=True)
+        if w_last.shape[-1] == 1:  # one output (Q): an outer product, which bmm with K = 1 runs slowly
+            grad_h = grad_out.to(low) * w_last.transpose(1, 2).to(low)
+        else:
+            grad_h = torch.bmm(grad_out.to(low), w_last.transpose(1, 2).to(low))
+        grad_x = grad_action = None
+        for k in range(n_layers - 2, -1, -1):
+            grad_z = torch.ops.aten.threshold_backward(grad_h, acts[k + 1], 0)  # ReLU's backward, from its output
+            h, w = acts[k], weights[k]
+            g, fan_in, hid = w.shape
+            if h.dim() == 2:  # joint input: [in + 1, B] @ [B, G*H], the bias's gradient in the row of ones
+                flat = grad_z.transpose(0, 1).reshape(-1, g * hid)
+                grad_wb = (h.t() @ flat).view(fan_in + 1, g, hid).transpose(0, 1).to(w.dtype)
+                grad_w[k], grad_b[k] = grad_wb[:, :-1], grad_wb[:, -1:]
+            else:
+                grad_w[k] = torch.bmm(h.transpose(1, 2), grad_z).to(w.dtype)
+                grad_b[k] = grad_z.sum(1, keepdim=True, dtype=w.dtype)
+            if k > 0:
+                grad_h = torch.bmm(grad_z, w.transpose(1, 2).to(low))
+            elif ctx.critic:
+                n = ctx.num_robots
+                if ctx.needs_input_grad[0]:  # every critic's gradient into the observations
+                    grad_joint = flat @ w.permute(1, 0, 2).reshape(fan_in, g * hid).t().to(low)
+                    grad_x = grad_joint[:, : fan_in - 2 * n].reshape(ctx.obs_shape).to(w.dtype)
+                if ctx.needs_input_grad[1]:  # critic g's gradient into its own action only
+                    groups = torch.arange(g, device=w.device)
+                    rows = fan_in - 2 * n + 2 * (groups % n)
+                    w_own = w[groups[:, None], rows[:, None] + torch.arange(2, device=w.device)]  # [G, 2, H]
+                    grad_own = torch.bmm(grad_z, w_own.transpose(1, 2).to(low)).to(w.dtype)  # [G, B, 2]
+                    grad_action = grad_own.view(-1, n, *grad_own.shape[1:]).sum(0).transpose(0, 1)  # [B, N, 2]
+            elif ctx.needs_input_grad[0]:
+                grad_x = torch.bmm(grad_z, w.transpose(1, 2).to(low)).to(w.dtype)
+        return (grad_x, grad_action, None, None, *grad_w, *grad_b)
+
+    @staticmethod
+    def vmap(info, in_dims, x, action, num_robots, dtype, *params):
+        """Weights batched on the twin dimension (TorchRL stacks the critics): fold the twins into the
+        groups; inputs TorchRL expanded over the twins (stride 0) count as one input for all of them."""
+        c = info.batch_size
+
+        def unbatch(t, d):  # (tensor, batch dim or None); an expanded batch is no batch
+            if t is None or d is None:
+                return t, None
+            t = t.movedim(d, 0)
+            return (t[0], None) if t.stride(0) == 0 else (t, 0)
+
+        (x, x_dim), (action, a_dim) = unbatch(x, in_dims[0]), unbatch(action, in_dims[1])
+        params = [p.movedim(d, 0) if d is not None else p.expand(c, *p.shape) for p, d in zip(params, in_dims[4:],
+                                                                                             strict=True)]
+        if action is not None and (x_dim is not None or a_dim is not None):  # twins on inputs of their own
+            outs = [_ReluLayers.apply(x if x_dim is None else x[i], action if a_dim is None else action[i],
+                                      num_robots, dtype, *(p[i] for p in params)) for i in range(c)]
+            return tuple(torch.stack(o) for o in zip(*outs, strict=True)), (0,) * len(outs[0])
+        if action is None:
+            x = (x if x_dim is not None else x.expand(c, *x.shape)).reshape(-1, *x.shape[-2:])
+        out = _ReluLayers.apply(x, action, num_robots, dtype, *(p.reshape(-1, *p.shape[2:]) for p in params))
+        dims = [0] * len(out)
+        unfolded = [o.view(c, -1, *o.shape[1:]) for o in out]
+        if action is not None:  # the joint input is one for every twin
+            unfolded[1], dims[1] = out[1], None
+        return tuple(unfolded), tuple(dims)
+
+
 class PerRobotMLP(nn.Module):
     """N independent MLPs ``in -> hidden... -> out``, input ``[..., N, in]``, output ``[..., N, out]``."""
 
@@ -59,7 +186,21 @@ class PerRobotMLP(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
-        return self.layers_from(x.reshape(-1, n, d).transpose(0, 1), 0).transpose(0, 1).reshape(*lead, n, -1)
+        h = x.reshape(-1, n, d).transpose(0, 1)
+        h = self.relu_layers(h) if self.fast else self.layers_from(h, 0)
+        return h.transpose(0, 1).reshape(*lead, n, -1)
+
+    @property
+    def fast(self) -> bool:
+        """ReLU hidden layers run through :class:`_ReluLayers` (forward and backward by hand)."""
+        return type(self.activation) is nn.ReLU
+
+    def relu_layers(self, x: torch.Tensor, action: torch.Tensor | None = None) -> torch.Tensor:
+        """Every layer through :class:`_ReluLayers`: on robot-major ``x`` ``[N, B, in]``, or (critic) on the joint
+        input of observations ``x`` ``[B, N, D]`` and ``action`` ``[B, N, 2]``; returns ``[N, B, out]``. Hidden
+        layers in ``compute_dtype`` while gradients are on, in fp32 otherwise (as :meth:`layers_from`)."""
+        dtype = self.compute_dtype if torch.is_grad_enabled() else None
+        return _ReluLayers.apply(x, action, self.num_robots, dtype, *self.weights, *self.biases)[0]
 
     def layers_from(self, h: torch.Tensor, first: int) -> torch.Tensor:
         """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``.
@@ -92,6 +233,9 @@ class CentralizedCritic(nn.Module):
         lead, (n, d) = observation.shape[:-2], observation.shape[-2:]
         act = action.reshape(-1, n, 2)
         dead = act.detach()
+        if self.mlp.fast:  # the same, forward and backward by hand
+            h = self.mlp.relu_layers(observation.reshape(-1, n, d), act)  # [N, B, 1]
+            return h.transpose(0, 1).reshape(*lead, n, 1)
         # first layer of all N critics as one GEMM over the shared joint input, bias fused:
         # [B, N*D + 2N] @ [N*D + 2N, N*H] (weights [N, N*D + 2N, H] laid side by side)
         w1, b1 = self.mlp.weights[0], self.mlp.biases[0]

@@ -1,10 +1,13 @@
 """Actors are decentralized, critics centralized, and no parameters are shared between robots."""
 
+import pytest
 import torch
 from tensordict import TensorDict
 from torch import nn
+from torch.func import functional_call, stack_module_state, vmap
 
 from formation_rl.models import PerRobotMLP, make_actor, make_critic
+from formation_rl.models.networks import _ReluLayers
 
 N, D = 4, 10
 
@@ -95,6 +98,78 @@ def test_bf16_runs_hidden_layers_in_bf16_only_with_gradients():
     set_precision(critic, "fp32")
     with torch.enable_grad():
         assert torch.equal(critic(td(obs, act))["agents", "state_action_value"].detach(), q32)
+
+
+class _AutogradReLU(nn.ReLU):
+    """Not ``nn.ReLU`` itself: the networks take the autograd (+ autocast) path, the reference."""
+
+
+def _grads(out, inputs):
+    return torch.autograd.grad(out.square().sum(), inputs)
+
+
+def test_hand_written_relu_layers_pass_gradcheck():
+    """_ReluLayers' backward against finite differences (float64): actor mode, and critic mode into the observations."""
+    torch.manual_seed(0)
+    n, d, b = 3, 4, 5
+    sizes = ((d, 6), (6, 6), (6, 2))
+    ws = [torch.randn(n, i, o, dtype=torch.float64, requires_grad=True) for i, o in sizes]
+    bs = [torch.randn(n, 1, o, dtype=torch.float64, requires_grad=True) for _, o in sizes]
+    x = torch.randn(n, b, d, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(lambda x, *p: _ReluLayers.apply(x, None, n, None, *p)[0], (x, *ws, *bs))
+    ws[0] = torch.randn(n, n * (d + 2), 6, dtype=torch.float64, requires_grad=True)
+    obs, act = torch.randn(b, n, d, dtype=torch.float64, requires_grad=True), torch.randn(b, n, 2, dtype=torch.float64)
+    assert torch.autograd.gradcheck(lambda o, *p: _ReluLayers.apply(o, act, n, None, *p)[0], (obs, *ws, *bs))
+
+
+def test_hand_written_layers_equal_the_autograd_path():
+    """Values and gradients (weights, observations, each critic's own action) as autograd computes them."""
+    torch.manual_seed(0)
+    critic, actor = make_critic(N, D, (16, 16)).module, make_actor(N, D, (16, 16)).module[0]
+    obs, act = torch.randn(8, N, D, requires_grad=True), (torch.rand(8, N, 2) * 2 - 1).requires_grad_()
+    fast = critic(obs, act), actor(obs)
+    fast_grads = _grads(fast[0], [obs, act, *critic.parameters()]) + _grads(fast[1], list(actor.parameters()))
+    critic.mlp.activation = actor.activation = _AutogradReLU()
+    ref = critic(obs, act), actor(obs)
+    ref_grads = _grads(ref[0], [obs, act, *critic.parameters()]) + _grads(ref[1], list(actor.parameters()))
+    for a, b in zip((*fast, *fast_grads), (*ref, *ref_grads), strict=True):
+        torch.testing.assert_close(a, b, atol=1e-5, rtol=1e-5)
+
+
+@pytest.mark.parametrize("inputs", ["shared", "expanded", "per_twin"])
+def test_twin_critics_under_vmap_equal_each_critic_alone(inputs):
+    """TorchRL's vmap over stacked twin critics: the vmap rule folds them into one call; the same values
+    and gradients as each critic called alone, whether the inputs are shared, expanded, or per twin."""
+    torch.manual_seed(0)
+    critics = [make_critic(N, D, (16, 16)).module for _ in range(2)]
+    params, _ = stack_module_state(critics)
+    obs, act = torch.randn(8, N, D), (torch.rand(8, N, 2) * 2 - 1).requires_grad_()
+    obs2 = {"shared": obs, "expanded": obs.expand(2, *obs.shape), "per_twin": torch.stack([obs, obs + 1])}[inputs]
+    dims = (0, None, None) if inputs == "shared" else (0, 0, 0)
+    act2 = act if inputs == "shared" else act.expand(2, *act.shape)
+    q = vmap(lambda p, o, a: functional_call(critics[0], p, (o, a)), dims)(params, obs2, act2)
+    each = torch.stack([c(o, act) for c, o in zip(critics, obs2 if obs2.dim() == 4 else (obs, obs), strict=True)])
+    torch.testing.assert_close(q, each)
+    grads = _grads(q, [act, *params.values()])
+    flat = _grads(each, [act, *critics[0].parameters(), *critics[1].parameters()])
+    k = len(params)
+    expected = [flat[0], *(torch.stack([flat[1 + i], flat[1 + k + i]]) for i in range(k))]
+    for g, e in zip(grads, expected, strict=True):
+        torch.testing.assert_close(g, e)
+
+
+def test_bf16_gradients_are_close_to_fp32():
+    from formation_rl.models import set_precision
+
+    torch.manual_seed(0)
+    critic = make_critic(N, D, (32, 32))
+    obs, act = torch.randn(256, N, D), (torch.rand(256, N, 2) * 2 - 1).requires_grad_()
+    g32 = _grads(critic.module(obs, act), [act, *critic.parameters()])
+    set_precision(critic, "bf16")
+    g16 = _grads(critic.module(obs, act), [act, *critic.parameters()])
+    for a, b in zip(g16, g32, strict=True):
+        assert a.dtype == torch.float32
+        assert (a - b).norm() <= 0.05 * b.norm()
 
 
 def test_bf16_is_refused_where_the_cpu_lacks_it(monkeypatch):
