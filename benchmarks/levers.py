@@ -118,6 +118,9 @@ def _stepper(precision: str, before: bool):
         actor, critic = networks.make_actor(n, d, cfg.model.hidden), networks.make_critic(n, d, cfg.model.hidden)
     networks.set_precision(actor, precision)
     networks.set_precision(critic, precision)
+    for m in (*actor.modules(), *critic.modules()):
+        if isinstance(m, networks.PerRobotMLP) and not before:
+            m.hand_written = True  # in fp32 too (shipped: under bf16 only)
     algo = make_algorithm(actor, critic, a)
     buffer = make_replay_buffer(replace(a, buffer_size=50_000))
     buffer.extend(tt.random_transitions(50_000, n, d))

@@ -183,6 +183,7 @@ class PerRobotMLP(nn.Module):
             self.biases.append(nn.Parameter(torch.empty(num_robots, 1, fan_out).uniform_(-bound, bound)))
         self.activation = ACTIVATIONS[activation]()  # (in place measured no faster: vmap copies the twins)
         self.compute_dtype: torch.dtype | None = None  # torch.bfloat16: hidden layers under autocast with grad
+        self.hand_written: bool | None = None  # _ReluLayers: None = under bf16 only; True/False forces it (tests)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
@@ -192,8 +193,11 @@ class PerRobotMLP(nn.Module):
 
     @property
     def fast(self) -> bool:
-        """ReLU hidden layers run through :class:`_ReluLayers` (forward and backward by hand)."""
-        return type(self.activation) is nn.ReLU
+        """ReLU hidden layers run through :class:`_ReluLayers` (forward and backward by hand): under
+        ``precision=bf16`` only, until a learning A/B shows it equal to the autograd path (the fp32 default
+        stays on autograd; the same-process step A/B is in benchmarks/README.md)."""
+        on = self.compute_dtype is not None if self.hand_written is None else self.hand_written
+        return on and type(self.activation) is nn.ReLU
 
     def relu_layers(self, x: torch.Tensor, action: torch.Tensor | None = None) -> torch.Tensor:
         """Every layer through :class:`_ReluLayers`: on robot-major ``x`` ``[N, B, in]``, or (critic) on the joint

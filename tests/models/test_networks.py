@@ -126,6 +126,7 @@ def test_hand_written_layers_equal_the_autograd_path():
     """Values and gradients (weights, observations, each critic's own action) as autograd computes them."""
     torch.manual_seed(0)
     critic, actor = make_critic(N, D, (16, 16)).module, make_actor(N, D, (16, 16)).module[0]
+    critic.mlp.hand_written = actor.hand_written = True  # in fp32 too (by default only under bf16)
     obs, act = torch.randn(8, N, D, requires_grad=True), (torch.rand(8, N, 2) * 2 - 1).requires_grad_()
     fast = critic(obs, act), actor(obs)
     fast_grads = _grads(fast[0], [obs, act, *critic.parameters()]) + _grads(fast[1], list(actor.parameters()))
@@ -142,6 +143,8 @@ def test_twin_critics_under_vmap_equal_each_critic_alone(inputs):
     and gradients as each critic called alone, whether the inputs are shared, expanded, or per twin."""
     torch.manual_seed(0)
     critics = [make_critic(N, D, (16, 16)).module for _ in range(2)]
+    for c in critics:
+        c.mlp.hand_written = True
     params, _ = stack_module_state(critics)
     obs, act = torch.randn(8, N, D), (torch.rand(8, N, 2) * 2 - 1).requires_grad_()
     obs2 = {"shared": obs, "expanded": obs.expand(2, *obs.shape), "per_twin": torch.stack([obs, obs + 1])}[inputs]
