@@ -47,7 +47,7 @@ from formation_rl.replay import make_replay_buffer
 from formation_rl.trainer import Trainer
 
 ALGOS = ("maddpg", "matd3", "per_matd3")
-CONF = Path(__file__).resolve().parents[1] / "conf"
+CONF = Path(__file__).resolve().parents[1] / "formation_rl" / "conf"
 PAPER_FRAMES, PAPER_RATIO = 9_000_000, 100
 
 

@@ -9,7 +9,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-CONF = Path(__file__).resolve().parent.parent / "conf"
+CONF = Path(__file__).resolve().parent / "conf"  # the Hydra configs, package data (pyproject.toml)
 
 
 def one_line_errors(main: Callable) -> Callable:

@@ -25,7 +25,7 @@ from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 from tqdm import tqdm
 
-from formation_rl.cli import check_device, one_line_errors
+from formation_rl.cli import CONF, check_device, one_line_errors
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
 
@@ -134,7 +134,7 @@ def _overridden_env(cfg: DictConfig, base: EnvConfig) -> EnvConfig:
     return EnvConfig.from_dict(merged)
 
 
-@hydra.main(config_path="../conf", config_name="evaluate", version_base=None)
+@hydra.main(config_path=str(CONF), config_name="evaluate", version_base=None)
 @one_line_errors
 def main(cfg: DictConfig) -> None:
     from formation_rl.policy import CLASSICAL, classical_policy, is_classical, load_policy, output_dir, policy_path

@@ -19,7 +19,7 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 from tqdm import tqdm
 
-from formation_rl.cli import check_device, one_line_errors
+from formation_rl.cli import CONF, check_device, one_line_errors
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics, summarize
 from formation_rl.envs.render import save_gif
@@ -68,7 +68,7 @@ def run(cfg: RolloutConfig | DictConfig, out_dir: Path) -> dict[str, float]:
     return metrics
 
 
-@hydra.main(config_path="../conf", config_name="rollout", version_base=None)
+@hydra.main(config_path=str(CONF), config_name="rollout", version_base=None)
 @one_line_errors
 def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)

@@ -14,7 +14,7 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from formation_rl.cli import one_line_errors
+from formation_rl.cli import CONF, one_line_errors
 from formation_rl.config import register
 from formation_rl.trainer import Trainer
 
@@ -22,7 +22,7 @@ register()
 log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/job_logging/plain.yaml)
 
 
-@hydra.main(config_path="../conf", config_name="config", version_base=None)
+@hydra.main(config_path=str(CONF), config_name="config", version_base=None)
 @one_line_errors
 def main(cfg: DictConfig) -> float:
     run_dir = Path(HydraConfig.get().runtime.output_dir)

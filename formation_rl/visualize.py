@@ -14,7 +14,7 @@ import hydra
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig
 
-from formation_rl.cli import check_device, one_line_errors
+from formation_rl.cli import CONF, check_device, one_line_errors
 from formation_rl.envs import FormationEnv
 from formation_rl.envs.metrics import episode_metrics, summarize
 from formation_rl.envs.render import plot_trajectories, save_gif
@@ -35,7 +35,7 @@ class RenderConfig:
 ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 
 
-@hydra.main(config_path="../conf", config_name="render", version_base=None)
+@hydra.main(config_path=str(CONF), config_name="render", version_base=None)
 @one_line_errors
 def main(cfg: DictConfig) -> None:
     from formation_rl.policy import load_policy, output_dir

@@ -159,7 +159,7 @@ def test_bad_input_is_one_line_before_compute(tmp_path, capsys, entry, args, mes
             check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "env"), args)
             import formation_rl.train  # noqa: F401  (registers the schema)
 
-            with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base=None):
+            with initialize_config_dir(config_dir=str(ROOT / "formation_rl" / "conf"), version_base=None):
                 cfg = compose(config_name="config", overrides=args)
             Trainer(to_train_config(cfg), tmp_path).load_checkpoint(cfg.resume)
         text = capsys.readouterr().err.strip() if err.type is SystemExit else f"error: {err.value}"

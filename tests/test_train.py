@@ -201,7 +201,7 @@ def test_default_budget_learning_check(tmp_path):
 
     import formation_rl.train  # noqa: F401  (registers the schema)
 
-    with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base=None):
+    with initialize_config_dir(config_dir=str(ROOT / "formation_rl" / "conf"), version_base=None):
         cfg = compose(config_name="config", overrides=["progress=false"])
     trainer = Trainer(cfg, tmp_path)
     final = trainer.train()
@@ -313,7 +313,7 @@ def test_fast_budget_composes_to_the_residual_recipe():
     from formation_rl.trainer import to_train_config
 
     register()
-    with initialize_config_dir(str(Path(__file__).resolve().parents[1] / "conf"), version_base=None):
+    with initialize_config_dir(str(Path(__file__).resolve().parents[1] / "formation_rl" / "conf"), version_base=None):
         cfg = to_train_config(compose("config", overrides=["budget=fast"]))
     validate(cfg)
     assert cfg.model.residual == "apf" and cfg.algo.actor_init == "random" and cfg.algo.bc_weight > 0
