@@ -1,13 +1,13 @@
-"""formation_rl.ceiling: the success ceiling of the classical controller by sensing range."""
+"""formation_rl.apps.ceiling: the success ceiling of the classical controller by sensing range."""
 
 import json
 
 import pytest
 
-from formation_rl import ceiling
+from formation_rl.apps import ceiling
 from formation_rl.envs import EnvConfig
-from formation_rl.evaluate import evaluate_policy
-from formation_rl.policy import classical_policy
+from formation_rl.evaluation.evaluate import evaluate_policy
+from formation_rl.evaluation.policy import classical_policy
 
 
 def test_leader_share_bounds_team_success_per_episode():

@@ -9,10 +9,10 @@ import pytest
 import torch
 
 import formation_rl
-from formation_rl.controllers import APFController
 from formation_rl.envs import EnvConfig, FormationEnv
-from formation_rl.evaluate import evaluate_policy
-from formation_rl.policy import classical_policy
+from formation_rl.evaluation.evaluate import evaluate_policy
+from formation_rl.evaluation.policy import classical_policy
+from formation_rl.models.controller import APFController
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -64,8 +64,8 @@ def test_apf_adapts_to_other_worlds():
 
 
 def test_make_eval_apf_writes_metrics(tmp_path):
-    run = subprocess.run([sys.executable, "-m", "formation_rl.evaluate", "ckpt=apf", "episodes=20", f"out={tmp_path}"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=300)
+    run = subprocess.run([sys.executable, "-m", "formation_rl.apps.evaluate", "ckpt=apf", "episodes=20",
+                          f"out={tmp_path}"], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     result = json.loads((tmp_path / "metrics.json").read_text())
     assert result["eval"]["algo"] == "apf" and 0 <= result["success"] <= 1

@@ -6,7 +6,7 @@ from pathlib import Path
 import torch
 
 import formation_rl
-from formation_rl.evaluate import evaluate_policy
+from formation_rl.evaluation.evaluate import evaluate_policy
 
 ROOT = Path(__file__).resolve().parents[1]
 CLAIMED_SUCCESS = 0.153  # docs/RESULTS.md: 1,000 held-out episodes

@@ -1,12 +1,12 @@
-"""The main job until training lands: `python -m formation_rl.rollout` (Hydra)."""
+"""The main job until training lands: `python -m formation_rl.apps.demo` (Hydra)."""
 
 import json
 import subprocess
 import sys
 from pathlib import Path
 
+from formation_rl.apps.demo import RolloutConfig, run
 from formation_rl.envs import EnvConfig
-from formation_rl.rollout import RolloutConfig, run
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -21,7 +21,7 @@ def test_run_writes_metrics_and_gif(tmp_path):
 
 
 def _cli(*args, cwd=ROOT):
-    return subprocess.run([sys.executable, "-m", "formation_rl.rollout", *args], cwd=cwd, capture_output=True,
+    return subprocess.run([sys.executable, "-m", "formation_rl.apps.demo", *args], cwd=cwd, capture_output=True,
                           text=True, timeout=300)
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import optuna
 import pytest
 
-from formation_rl.tune import check_space, score
+from formation_rl.apps.tune import check_space, score
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ('base=["total_frames=1600","eval_interval=800","checkpoint_interval=1600","eval_episodes=4",'
@@ -15,7 +15,7 @@ TINY = ('base=["total_frames=1600","eval_interval=800","checkpoint_interval=1600
 
 
 def _tune(*args):
-    return subprocess.run([sys.executable, "-m", "formation_rl.tune", *args], cwd=ROOT, capture_output=True,
+    return subprocess.run([sys.executable, "-m", "formation_rl.apps.tune", *args], cwd=ROOT, capture_output=True,
                           text=True, timeout=600)
 
 

@@ -1,8 +1,8 @@
-"""What the obstacle sensing range allows a reactive team: ``python -m formation_rl.ceiling [--out DIR]``.
+"""What the obstacle sensing range allows a reactive team: ``python -m formation_rl.apps.ceiling [--out DIR]``.
 
 A policy that acts on the SPEC §3 observation sees an obstacle only once its surface is within
 ``sensing_range`` (rho_d, 0.2 m by SPEC §1), and it collides 0.1 m later (rho_o). For each sensing
-range this runs a random search over the classical controller's gains (``formation_rl.controllers``)
+range this runs a random search over the classical controller's gains (``formation_rl.models.controller``)
 on training scenarios (seed 0), then evaluates the best gain set on the held-out scenarios of
 ``make eval``, and reports the team's success with its parts and the leader's own share: the leader
 at the goal at the last step without touching an obstacle (it sees no other robot, so nothing the
@@ -22,10 +22,10 @@ from pathlib import Path
 import torch
 from tensordict import TensorDictBase
 
-from formation_rl.controllers import apf_policy
-from formation_rl.diagnose import failure_metrics
 from formation_rl.envs import EnvConfig
-from formation_rl.evaluate import EVAL_SEED, evaluate_policy, mean_ci
+from formation_rl.evaluation.diagnose import failure_metrics
+from formation_rl.evaluation.evaluate import EVAL_SEED, evaluate_policy, mean_ci
+from formation_rl.models.controller import apf_policy
 
 # the gains searched, each over a few values around the defaults (the defaults are in every list)
 SPACE = {
@@ -85,7 +85,7 @@ def safe_path_time(cfg: EnvConfig, band_speed: float) -> float:
 
 
 def team_metrics(rollout: TensorDictBase, goal_radius: float) -> dict[str, torch.Tensor]:
-    """:func:`~formation_rl.diagnose.failure_metrics` plus ``leader_ok``: the leader at the goal at the last
+    """:func:`~formation_rl.evaluation.diagnose.failure_metrics` plus ``leader_ok``: the leader at the goal at the last
     step and never within the obstacle collision margin (from the world state the rollout carries)."""
     out = failure_metrics(rollout, goal_radius)
     state = rollout["next", "state"]

@@ -1,4 +1,4 @@
-"""Why episodes fail: ``python -m formation_rl.diagnose CKPT [CKPT ...] [--out DIR]``.
+"""Why episodes fail: ``python -m formation_rl.apps.diagnose CKPT [CKPT ...] [--out DIR]``.
 
 On the held-out episodes of ``make eval`` (same seed, the checkpoint's own world), success (SPEC §6)
 is split into its three parts: the leader within ``rho_g`` of the goal at the last step, no
@@ -15,49 +15,11 @@ import sys
 from pathlib import Path
 
 import torch
-from tensordict import TensorDictBase
 
-from formation_rl.envs.metrics import episode_metrics
-from formation_rl.evaluate import EVAL_SEED, evaluate_policy
+from formation_rl.evaluation.diagnose import BINS, PARTS, breakdown, failure_metrics, first_step, last_step
+from formation_rl.evaluation.evaluate import EVAL_SEED, evaluate_policy
 
-PARTS = ("success", "at_goal", "no_robot_collision", "no_obstacle_collision")
-# first-collision windows, in steps after the reset (each step 0.1 s at the default dt)
-BINS = ((1, 5), (6, 10), (11, 20), (21, 50), (51, 100), (101, 150))
-
-
-def first_step(flags: torch.Tensor) -> torch.Tensor:
-    """Per row of ``[B, T]`` flags, the 1-based step of the first ``True``; 0 where there is none."""
-    hit = flags.any(1)
-    return torch.where(hit, flags.float().argmax(1) + 1, torch.zeros_like(hit, dtype=torch.long))
-
-
-def last_step(flags: torch.Tensor) -> torch.Tensor:
-    """Per row of ``[B, T]`` flags, the 1-based step of the last ``True``; 0 where there is none."""
-    last = flags.shape[1] + 1 - first_step(flags.flip(1))
-    return torch.where(flags.any(1), last, torch.zeros_like(last))
-
-
-def failure_metrics(rollout: TensorDictBase, goal_radius: float) -> dict[str, torch.Tensor]:
-    """:func:`episode_metrics` of a from-reset ``[B, T]`` rollout plus the steps of each episode's first
-    robot-robot and robot-obstacle collision and of its last robot-robot collision (0: none)."""
-    robot, obstacle = rollout["next", "robot_collision"][..., 0], rollout["next", "obstacle_collision"][..., 0]
-    return {
-        **episode_metrics(rollout, goal_radius),
-        "first_robot_collision": first_step(robot).double(),
-        "last_robot_collision": last_step(robot).double(),
-        "first_obstacle_collision": first_step(obstacle).double(),
-    }
-
-
-def breakdown(per_episode: dict[str, torch.Tensor]) -> dict[str, float]:
-    """Fractions of episodes: the parts of success, and first robot-robot collision per window of steps."""
-    out = {k: per_episode[k].mean().item() for k in PARTS}
-    first = per_episode["first_robot_collision"]
-    for lo, hi in BINS:
-        out[f"first_robot_collision_{lo}_{hi}"] = ((first >= lo) & (first <= hi)).double().mean().item()
-    last = per_episode["last_robot_collision"]
-    out["robot_collision_only_in_first_20"] = ((first >= 1) & (last <= 20)).double().mean().item()
-    return out
+__all__ = ["BINS", "PARTS", "breakdown", "failure_metrics", "first_step", "last_step", "format_rows", "main", "plot"]
 
 
 def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path) -> Path:
@@ -95,7 +57,7 @@ def format_rows(name: str, b: dict[str, float]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from formation_rl.policy import load_policy
+    from formation_rl.evaluation.policy import load_policy
 
     parser = argparse.ArgumentParser(description="Split success into its parts and time the first collisions")
     parser.add_argument("ckpts", nargs="+", help="policy.pt, last.pt, run directory or apf")

@@ -1,4 +1,5 @@
-"""Hyperparameter study: ``python -m formation_rl.tune [study=NAME] [trials=N] [workers=K] [launcher=local|slurm]``.
+"""Hyperparameter study:
+``python -m formation_rl.apps.tune [study=NAME] [trials=N] [workers=K] [launcher=local|slurm]``.
 
 A current Optuna driven from Hydra's compose API rather than Hydra's Optuna sweeper: that sweeper
 (hydra-optuna-sweeper 1.2) pins ``optuna<3``, whose SQLite storage does not run on SQLAlchemy 2, and a
@@ -28,7 +29,7 @@ import hydra
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, OmegaConf
 
-from formation_rl.cli import CONF, one_line_errors
+from formation_rl.apps.cli import CONF, one_line_errors
 
 KINDS = ("float", "int", "categorical")
 
@@ -105,12 +106,12 @@ def storage_url(cfg: TuneConfig) -> str:
 
 
 def train_config(overrides: list[str]):
-    """The training config composed from ``conf/`` as ``python -m formation_rl.train`` would."""
+    """The training config composed from ``conf/`` as ``python -m formation_rl.apps.train`` would."""
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from formation_rl.config import register
-    from formation_rl.trainer import to_train_config
+    from formation_rl.training.config import register
+    from formation_rl.training.trainer import to_train_config
 
     register()
     GlobalHydra.instance().clear()  # inside this app's own @hydra.main: compose needs Hydra's global free
@@ -121,7 +122,7 @@ def train_config(overrides: list[str]):
 def objective(trial, cfg: TuneConfig) -> float:
     import optuna
 
-    from formation_rl.trainer import Trainer
+    from formation_rl.training.trainer import Trainer
 
     overrides = [*cfg.base, *suggest(trial, cfg.space), f"seed={cfg.seed}", f"threads={cfg.threads}",
                  "progress=false"]
@@ -210,7 +211,7 @@ def main(dcfg: DictConfig) -> None:
         if getattr(cfg, name) < 1:
             raise ValueError(f"{name} = {getattr(cfg, name)!r} is invalid: must be an integer >= 1")
     check_space(cfg.space)
-    from formation_rl.config import validate
+    from formation_rl.training.config import validate
 
     first = train_config([*cfg.base, *(f"{k}={_first(s)}" for k, s in cfg.space.items())])
     validate(first)  # a bad base or space fails now, in one line, not in every worker
@@ -227,7 +228,7 @@ def main(dcfg: DictConfig) -> None:
         executor.update_parameters(slurm_partition=cfg.slurm.partition, mem_gb=cfg.slurm.mem_gb,
                                    cpus_per_task=cfg.slurm.cpus_per_task)
     plain = dataclasses.asdict(cfg)
-    from formation_rl.tune import run_worker as worker  # by reference: this file may be running as __main__
+    from formation_rl.apps.tune import run_worker as worker  # by reference: this file may be running as __main__
 
     jobs = [executor.submit(worker, plain) for _ in range(cfg.workers)]
     for job in jobs:

@@ -1,8 +1,8 @@
-"""Render one evaluation episode of a policy: ``python -m formation_rl.visualize ckpt=PATH``.
+"""Render one evaluation episode of a policy: ``python -m formation_rl.apps.render ckpt=PATH``.
 
 Writes ``episode.gif`` (the episode) and ``trajectories.png`` (the paper's Figure 10: paths, the
 formation at chosen steps, the obstacle area, collisions) into ``out`` (default ``outputs/render/<name>``,
-never beside the checkpoint: :func:`formation_rl.policy.output_dir`).
+never beside the checkpoint: :func:`formation_rl.evaluation.policy.output_dir`).
 """
 
 from __future__ import annotations
@@ -14,11 +14,11 @@ import hydra
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig
 
-from formation_rl.cli import CONF, check_device, one_line_errors
+from formation_rl.apps.cli import CONF, check_device, one_line_errors
 from formation_rl.envs import FormationEnv
 from formation_rl.envs.metrics import episode_metrics, summarize
 from formation_rl.envs.render import plot_trajectories, save_gif
-from formation_rl.evaluate import EVAL_SEED
+from formation_rl.evaluation.evaluate import EVAL_SEED
 
 
 @dataclass
@@ -38,7 +38,7 @@ ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 @hydra.main(config_path=str(CONF), config_name="render", version_base=None)
 @one_line_errors
 def main(cfg: DictConfig) -> None:
-    from formation_rl.policy import load_policy, output_dir
+    from formation_rl.evaluation.policy import load_policy, output_dir
 
     check_device(cfg.device)
     if not cfg.ckpt:
@@ -65,7 +65,7 @@ def main(cfg: DictConfig) -> None:
 
 
 if __name__ == "__main__":
-    from formation_rl.cli import check_overrides
+    from formation_rl.apps.cli import check_overrides
 
     check_overrides(RenderConfig, ())
     main()

@@ -9,10 +9,11 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import TensorDictModule, TensorDictModuleBase
 
-from formation_rl.config import ModelConfig
 from formation_rl.envs import EnvConfig
+from formation_rl.evaluation.checkpoint import POLICY, load_checkpoint_file
 from formation_rl.models import make_actor
-from formation_rl.trainer import POLICY, load_checkpoint_file, residual_base
+from formation_rl.models.config import ModelConfig
+from formation_rl.models.controller import residual_base
 
 
 class Policy(TensorDictModuleBase):
@@ -83,7 +84,7 @@ def _device(module: torch.nn.Module) -> torch.device:
     return tensor.device if tensor is not None else torch.device("cpu")
 
 
-CLASSICAL = "apf"  # the name that loads the non-learned reference controller (formation_rl.controllers)
+CLASSICAL = "apf"  # the name that loads the non-learned reference controller (formation_rl.models.controller)
 
 
 def is_classical(path) -> bool:
@@ -91,8 +92,8 @@ def is_classical(path) -> bool:
 
 
 def classical_policy(env_config: EnvConfig | None = None, device: str | torch.device = "cpu") -> Policy:
-    """The artificial-potential-field controller of :mod:`formation_rl.controllers` for ``env_config``."""
-    from formation_rl.controllers import apf_policy
+    """The artificial-potential-field controller of :mod:`formation_rl.models.controller` for ``env_config``."""
+    from formation_rl.models.controller import apf_policy
 
     cfg = env_config or EnvConfig()
     return Policy(apf_policy(cfg).to(device), cfg, CLASSICAL)

@@ -1,4 +1,4 @@
-"""Train MADDPG / MATD3 / PER-MATD3: ``python -m formation_rl.train algo=per_matd3 [overrides]``.
+"""Train MADDPG / MATD3 / PER-MATD3: ``python -m formation_rl.apps.train algo=per_matd3 [overrides]``.
 
 Writes TensorBoard events (``tb/``), checkpoints (``checkpoints/last.pt``, ``checkpoints/policy.pt``)
 and the final evaluation (``metrics.json``) into the Hydra run directory.
@@ -14,9 +14,9 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from formation_rl.cli import CONF, one_line_errors
-from formation_rl.config import register
-from formation_rl.trainer import Trainer
+from formation_rl.apps.cli import CONF, one_line_errors
+from formation_rl.training.config import register
+from formation_rl.training.trainer import Trainer
 
 register()
 log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/job_logging/plain.yaml)
@@ -40,8 +40,8 @@ def main(cfg: DictConfig) -> float:
 
 
 if __name__ == "__main__":
-    from formation_rl.cli import check_overrides
-    from formation_rl.config import TrainConfig
+    from formation_rl.apps.cli import check_overrides
+    from formation_rl.training.config import TrainConfig
 
     check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "env"))
     main()

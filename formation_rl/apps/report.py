@@ -1,6 +1,6 @@
 """Compare runs: the paper's Figures 6-9 and Table 1 from TensorBoard events and final evaluations.
 
-    python -m formation_rl.report RUN_OR_SWEEP_DIR [...] [--by algo.name] [--out DIR] [--smooth 0.9]
+    python -m formation_rl.apps.report RUN_OR_SWEEP_DIR [...] [--by algo.name] [--out DIR] [--smooth 0.9]
 
 Each run directory (Hydra's, with ``.hydra/config.yaml`` and ``tb/``) is grouped by a config key;
 curves are the mean over the group's seeds with a shaded min-max spread, smoothed; Table 1 takes
@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 import yaml  # noqa: E402
 
-from formation_rl.evaluate import mean_ci  # noqa: E402
+from formation_rl.evaluation.evaluate import mean_ci  # noqa: E402
 
 # the paper's Table 1 (CBRO %, UDBLT m, RFSE m)
 PAPER = {"maddpg": (3.72, 0.15, 2.28), "matd3": (4.29, 0.05, 1.09), "per_matd3": (2.37, 0.08, 0.36)}

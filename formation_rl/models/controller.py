@@ -34,6 +34,7 @@ from torch import nn
 
 from formation_rl.envs.config import EnvConfig
 from formation_rl.envs.formations import slots
+from formation_rl.models.config import ModelConfig
 
 
 def _unit(x: torch.Tensor, eps: float = 1e-6) -> tuple[torch.Tensor, torch.Tensor]:
@@ -182,3 +183,10 @@ def apf_policy(cfg: EnvConfig, **gains) -> TensorDictModule:
     """The controller as a TorchRL policy: ``("agents", "observation")`` -> ``("agents", "action")``."""
     return TensorDictModule(APFController(cfg, **gains), in_keys=[("agents", "observation")],
                             out_keys=[("agents", "action")])
+
+
+def residual_base(model: ModelConfig, env_cfg: EnvConfig) -> nn.Module | None:
+    """The controller the actors correct (``model.residual``), or None for the paper's actors."""
+    if model.residual == "apf":
+        return APFController(env_cfg)
+    return None

@@ -7,9 +7,7 @@ checkpointing on the way. Everything a resume needs is in ``checkpoints/last.pt`
 from __future__ import annotations
 
 import dataclasses
-import os
 import random
-import shutil
 import time
 import warnings
 from pathlib import Path
@@ -19,7 +17,6 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import TensorDictModuleBase, TensorDictSequential
-from torch import nn
 from torchrl.collectors import Collector
 from torchrl.data.postprocs import MultiStep
 from torchrl.envs.utils import ExplorationType, set_exploration_type
@@ -29,16 +26,25 @@ from tqdm import tqdm
 
 import formation_rl
 from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, NonFiniteError, make_algorithm
-from formation_rl.config import ModelConfig, TrainConfig, validate
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
 from formation_rl.models import make_actor, make_critic, set_precision
-from formation_rl.replay import make_replay_buffer, to_transitions
-from formation_rl.timing import Timings
-
-CHECKPOINT = "checkpoints/last.pt"
-POLICY = "checkpoints/policy.pt"
-FORMAT = 1  # checkpoint format version
+from formation_rl.models.controller import residual_base
+from formation_rl.training.checkpoint import (
+    _COMPLETE,
+    BUFFER_DIR,
+    CHECKPOINT,
+    FORMAT,
+    POLICY,
+    atomic_save,
+    buffer_dump_to_load,
+    dump_buffer,
+    load_checkpoint_file,
+    resolve_checkpoint,
+)
+from formation_rl.training.config import TrainConfig, validate
+from formation_rl.training.replay import make_replay_buffer, to_transitions
+from formation_rl.training.timing import Timings
 
 
 def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
@@ -90,60 +96,6 @@ class _Demonstrator(TensorDictModuleBase):
         return td
 
 
-def atomic_save(obj, path: Path) -> None:
-    """``torch.save`` to a temporary file, then rename: a crash never leaves a half-written file."""
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        torch.save(obj, tmp)
-        os.replace(tmp, path)
-    except OSError as err:
-        raise ValueError(f"cannot write {path}: {err.strerror or err}; the previous file there is unchanged") from None
-
-
-BUFFER_DIR = "buffer"  # beside last.pt, with save_buffer=true
-_COMPLETE = "COMPLETE"  # marker written into a buffer dump once every file of it is on disk
-
-
-def dump_buffer(buffer, directory: Path) -> None:
-    """``buffer.dumps`` into ``directory`` without ever leaving only a half-written dump.
-
-    The dump goes to ``<dir>.tmp``, gets a completion marker, then replaces ``<dir>`` by two
-    renames; :func:`buffer_dump_to_load` finds the complete dump whichever step a crash hit.
-    """
-    tmp, old = directory.with_name(directory.name + ".tmp"), directory.with_name(directory.name + ".old")
-    try:
-        if not directory.exists() and (tmp / _COMPLETE).is_file():  # a crash between the renames: keep that dump
-            os.replace(tmp, directory)
-        shutil.rmtree(tmp, ignore_errors=True)
-        buffer.dumps(tmp)
-        (tmp / _COMPLETE).touch()
-        if directory.exists():
-            shutil.rmtree(old, ignore_errors=True)
-            os.replace(directory, old)
-        os.replace(tmp, directory)
-        shutil.rmtree(old, ignore_errors=True)
-    except OSError as err:
-        raise ValueError(f"cannot write the replay buffer to {directory}: {err.strerror or err}") from None
-
-
-def buffer_dump_to_load(directory: Path) -> Path | None:
-    """The newest complete dump of :func:`dump_buffer` (a crash may have stopped it between renames)."""
-    for candidate in (directory, *(directory.with_name(directory.name + ext) for ext in (".tmp", ".old"))):
-        if (candidate / _COMPLETE).is_file():
-            return candidate
-    return None
-
-
-def residual_base(model: ModelConfig, env_cfg: EnvConfig) -> nn.Module | None:
-    """The controller the actors correct (``model.residual``), or None for the paper's actors."""
-    if model.residual == "apf":
-        from formation_rl.controllers import APFController
-
-        return APFController(env_cfg)
-    return None
-
-
 class Trainer:
     def __init__(self, cfg: TrainConfig | DictConfig | dict, run_dir: str | Path):
         cfg = to_train_config(cfg)
@@ -167,7 +119,7 @@ class Trainer:
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
         if a.bc_weight > 0:  # the classical controller anchors the actor loss
-            from formation_rl.controllers import APFController
+            from formation_rl.models.controller import APFController
 
             self.algo.anchor = APFController(cfg.env).to(dev)
         if cfg.cudagraphs:
@@ -185,7 +137,7 @@ class Trainer:
                 eps_end=a.exploration_eps, action_key=("agents", "action"), device=dev))
         self.warmup = None  # algo.warmup_policy=apf: the classical controller (+ the same noise) collects warm-up
         if a.warmup_policy == "apf":
-            from formation_rl.controllers import apf_policy
+            from formation_rl.models.controller import apf_policy
 
             self.warmup = TensorDictSequential(apf_policy(cfg.env).to(dev), self.noise)
         self.timings = Timings()  # wall time per section of the loop (train.log, perf/share_*)
@@ -294,7 +246,7 @@ class Trainer:
         Every frame driven here (executed actions, rewards) also goes in the replay buffer.
         Returns the final fit loss.
         """
-        from formation_rl.controllers import apf_policy
+        from formation_rl.models.controller import apf_policy
 
         cfg, a = self.cfg, self.cfg.algo
         demo = _Demonstrator(apf_policy(cfg.env).to(self.env.device))
@@ -494,28 +446,3 @@ def _check_writable(run_dir: Path) -> None:
         probe.unlink()
     except OSError as err:
         raise ValueError(f"run directory {run_dir} is not writable: {err.strerror or err}") from None
-
-
-def resolve_checkpoint(path: str | Path, run_dir: Path) -> Path:
-    """``auto`` -> this run's last checkpoint; a run directory -> its last checkpoint; else the file."""
-    p = run_dir / CHECKPOINT if str(path) in ("auto", "true", "True") else Path(path)
-    if p.is_dir():
-        p = p / CHECKPOINT
-    if not p.is_file():
-        raise ValueError(f"resume = {str(path)!r} is invalid: no checkpoint at {p}")
-    return p
-
-
-def load_checkpoint_file(path: Path) -> dict:
-    """Load a checkpoint or policy file, with one clear error for a corrupt or foreign one."""
-    try:
-        state = torch.load(path, map_location="cpu", weights_only=False)
-    except Exception as err:  # truncated, corrupted, not a torch file
-        kind = type(err).__name__
-        raise ValueError(f"checkpoint {path} cannot be read ({kind}): it is truncated or corrupt") from None
-    if not isinstance(state, dict) or "format" not in state:
-        raise ValueError(f"checkpoint {path} is not a formation_rl checkpoint")
-    if state["format"] != FORMAT:
-        raise ValueError(f"checkpoint {path} has format {state['format']} (formation_rl {state.get('version')}); "
-                         f"this formation_rl {formation_rl.__version__} reads format {FORMAT}")
-    return state

@@ -1,4 +1,4 @@
-"""Roll the formation world and report: ``python -m formation_rl.rollout [hydra overrides]``.
+"""Roll the formation world and report: ``python -m formation_rl.apps.demo [hydra overrides]``.
 
 Writes ``metrics.json`` (SPEC §6 means over episodes) and ``rollout.gif`` (copy 0) into the Hydra
 run directory and prints both paths.
@@ -19,7 +19,7 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 from tqdm import tqdm
 
-from formation_rl.cli import CONF, check_device, one_line_errors
+from formation_rl.apps.cli import CONF, check_device, one_line_errors
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics, summarize
 from formation_rl.envs.render import save_gif
@@ -79,7 +79,7 @@ def main(cfg: DictConfig) -> None:
 
 
 if __name__ == "__main__":
-    from formation_rl.cli import check_overrides
+    from formation_rl.apps.cli import check_overrides
 
     check_overrides(RolloutConfig, ("formation", "reward", "env"))
     main()

@@ -7,7 +7,7 @@ from tensordict import TensorDictBase
 from torchrl.data import LazyTensorStorage, TensorDictPrioritizedReplayBuffer, TensorDictReplayBuffer
 
 from formation_rl.algorithms import PRIORITY_KEY
-from formation_rl.config import AlgoConfig
+from formation_rl.algorithms.config import AlgoConfig
 
 # what a transition keeps: the world state and diagnostics stay out of the buffer (~1 kB per frame)
 TRANSITION_KEYS = [

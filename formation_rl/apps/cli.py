@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import functools
-import re
 import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
-CONF = Path(__file__).resolve().parent / "conf"  # the Hydra configs, package data (pyproject.toml)
+from formation_rl.utils import check_device
+
+__all__ = ["CONF", "check_device", "check_overrides", "one_line_errors", "remove_unused_run_dir"]
+
+CONF = Path(__file__).resolve().parent.parent / "conf"  # the Hydra configs, package data (pyproject.toml)
 
 
 def one_line_errors(main: Callable) -> Callable:
@@ -55,25 +58,6 @@ def remove_unused_run_dir(refused: bool) -> None:
             parent.rmdir()  # only if empty
         except OSError:
             break
-
-
-def check_device(device: str) -> None:
-    """Raise a one-line ``ValueError`` unless ``device`` is ``cpu`` or a CUDA device this machine has.
-
-    Every entry point calls it before any compute (training through ``formation_rl.config.validate``)."""
-    device = str(device)
-    if device == "cpu":
-        return
-    if not re.fullmatch(r"cuda(:\d+)?", device):
-        raise ValueError(f"device = {device!r} is invalid: must be cpu, cuda or cuda:<index>")
-    import torch
-
-    if not torch.cuda.is_available():
-        raise ValueError(f"device = {device!r} is invalid: must be cpu here: CUDA is not available on this machine")
-    count = torch.cuda.device_count()
-    if ":" in device and int(device.split(":")[1]) >= count:
-        raise ValueError(f"device = {device!r} is invalid: must be cpu, cuda or cuda:<index> with index < {count} "
-                         f"here ({count} CUDA device{'s' if count > 1 else ''})")
 
 
 def check_overrides(schema: type, groups: tuple[str, ...], argv: list[str] | None = None) -> None:
