@@ -8,7 +8,7 @@ import torch
 import formation_rl
 from formation_rl.evaluation.evaluate import evaluate_policy
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CLAIMED_SUCCESS = 0.153  # docs/RESULTS.md: 1,000 held-out episodes
 TOLERANCE = 0.10  # 50 episodes: the binomial standard deviation at 15% is 0.05
 

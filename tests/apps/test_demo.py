@@ -8,7 +8,7 @@ from pathlib import Path
 from formation_rl.apps.demo import RolloutConfig, run
 from formation_rl.envs import EnvConfig
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_run_writes_metrics_and_gif(tmp_path):

@@ -9,7 +9,7 @@ import pytest
 
 from formation_rl.apps.tune import check_space, score
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TINY = ('base=["total_frames=1600","eval_interval=800","checkpoint_interval=1600","eval_episodes=4",'
         '"algo.warmup_frames=400","algo.batch_size=32","num_envs=8","env.max_steps=20","model.hidden=[16,16]"]')
 

@@ -14,7 +14,7 @@ from formation_rl.evaluation.evaluate import evaluate_policy
 from formation_rl.evaluation.policy import classical_policy
 from formation_rl.models.controller import APFController
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_actions_bounded_and_each_robot_reads_only_its_own_observation():
