@@ -25,41 +25,41 @@ $(PY): pyproject.toml
 setup: $(PY)  ## create .venv and install the package with its dev tools
 
 train: $(PY)  ## train ALGO (maddpg | matd3 | per_matd3) on the short default budget; ARGS = Hydra overrides
-	$(PY) -m formation_rl.train algo=$(ALGO) $(ARGS)
+	$(PY) -m formation_rl.apps.train algo=$(ALGO) $(ARGS)
 
 train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradient steps)
-	$(PY) -m formation_rl.train algo=$(ALGO) budget=paper $(ARGS)
+	$(PY) -m formation_rl.apps.train algo=$(ALGO) budget=paper $(ARGS)
 
 train-fast: $(PY)  ## our quickest recipe (~10 min): actors correcting the classical controller, PER-MATD3 anchored to it
-	$(PY) -m formation_rl.train algo=$(ALGO) budget=fast $(ARGS)
+	$(PY) -m formation_rl.apps.train algo=$(ALGO) budget=fast $(ARGS)
 
 eval: $(PY)  ## evaluate CKPT (policy.pt, last.pt or run dir) on 1,000 held-out episodes; ARGS = overrides
-	$(PY) -m formation_rl.evaluate ckpt=$(CKPT) $(ARGS)
+	$(PY) -m formation_rl.apps.evaluate ckpt=$(CKPT) $(ARGS)
 
 diagnose: $(PY)  ## why CKPT's episodes fail: success split into goal / collision parts, first-collision times
-	$(PY) -m formation_rl.diagnose $(CKPT) $(ARGS)
+	$(PY) -m formation_rl.apps.diagnose $(CKPT) $(ARGS)
 
 ceiling: $(PY)  ## what the 0.2 m obstacle sensing range allows a reactive team: apf gains searched per range (~10 min)
-	$(PY) -m formation_rl.ceiling $(ARGS)
+	$(PY) -m formation_rl.apps.ceiling $(ARGS)
 
 render: $(PY)  ## one held-out episode of CKPT as a GIF and a Figure-10 PNG
-	$(PY) -m formation_rl.visualize ckpt=$(CKPT) $(ARGS)
+	$(PY) -m formation_rl.apps.render ckpt=$(CKPT) $(ARGS)
 
 sweep: $(PY)  ## algo x seed multirun (JOBS parallel jobs) into SWEEP; ARGS e.g. "total_frames=20000"
-	SWEEP_JOBS=$(JOBS) $(PY) -m formation_rl.train -m hydra/launcher=local hydra.sweep.dir=$(SWEEP) \
+	SWEEP_JOBS=$(JOBS) $(PY) -m formation_rl.apps.train -m hydra/launcher=local hydra.sweep.dir=$(SWEEP) \
 		algo=maddpg,matd3,per_matd3 seed=0,1,2 threads=1 progress=false $(ARGS)
 
 tune: $(PY)  ## Optuna study of the training recipe (SQLite in outputs/tune/, resumable; ARGS e.g. "trials=40 workers=2")
-	$(PY) -m formation_rl.tune study=$(STUDY) $(ARGS)
+	$(PY) -m formation_rl.apps.tune study=$(STUDY) $(ARGS)
 
 compare: $(PY)  ## Figures 6-9 and Table 1 from RUNS (run dirs or a sweep dir)
-	$(PY) -m formation_rl.report $(RUNS) $(ARGS)
+	$(PY) -m formation_rl.apps.report $(RUNS) $(ARGS)
 
 tensorboard: $(PY)  ## serve TensorBoard over RUNS (default outputs/); ARGS e.g. "--port 6007 --bind_all"
 	$(VENV)/bin/tensorboard --logdir $(RUNS) $(ARGS)
 
 demo: $(PY)  ## roll 64 copies for one episode, print SPEC §6 metrics, write a GIF (ARGS = Hydra overrides)
-	$(PY) -m formation_rl.rollout $(ARGS)
+	$(PY) -m formation_rl.apps.demo $(ARGS)
 
 test: $(PY)  ## unit tests (what CI runs)
 	$(PY) -m pytest -q

@@ -2,7 +2,7 @@
 
     python benchmarks/gpu_throughput.py [--frames 300000] [--json FILE]
 
-Per algorithm, two real :class:`~formation_rl.trainer.Trainer` runs at the paper's settings (one
+Per algorithm, two real :class:`~formation_rl.training.trainer.Trainer` runs at the paper's settings (one
 gradient step of batch 1024 per 100 frames, 64 env copies, ``device=cuda``), one with the eager
 update and one replaying it from CUDA graphs, in this one process: frames/s, gradient steps/s,
 the split of the wall time, and the ratio graphed / eager. Needs CUDA.
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import torch
 
-from formation_rl.trainer import Trainer
+from formation_rl.training.trainer import Trainer
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from train_throughput import make_config  # noqa: E402

@@ -109,7 +109,7 @@ def _stepper(precision: str, before: bool):
     from dataclasses import replace
 
     from formation_rl.algorithms import make_algorithm
-    from formation_rl.replay import make_replay_buffer
+    from formation_rl.training.replay import make_replay_buffer
 
     cfg = tt.make_config("per_matd3")
     a, n, d = cfg.algo, cfg.env.num_robots, cfg.env.obs_dim

@@ -13,7 +13,7 @@ speed drifts from run to run:
    (replay sampling, critic step, actor step every ``policy_delay``, soft update, priority
    write-back), the step's GEMM FLOPs counted from the layer sizes (:func:`step_flops`),
    achieved GFLOP/s and its ratio to the matmul rate;
-4. per algorithm, a real :class:`~formation_rl.trainer.Trainer` run at the paper's update ratio
+4. per algorithm, a real :class:`~formation_rl.training.trainer.Trainer` run at the paper's update ratio
    (one gradient step per 100 frames, 64 env copies): frames/s and the split of its wall time
    into env stepping, policy inference, buffer extend/sample, priority update, the update
    (losses, backward, optimisers, soft update), metrics and logging (evaluation excluded, reported
@@ -43,13 +43,13 @@ from omegaconf import OmegaConf
 from tensordict import TensorDict
 
 from formation_rl.algorithms import make_algorithm
-from formation_rl.config import TrainConfig
 from formation_rl.models import bf16_supported, make_actor, make_critic, set_precision
-from formation_rl.replay import make_replay_buffer
-from formation_rl.trainer import Trainer
+from formation_rl.training.config import TrainConfig
+from formation_rl.training.replay import make_replay_buffer
+from formation_rl.training.trainer import Trainer
 
 ALGOS = ("maddpg", "matd3", "per_matd3")
-CONF = Path(__file__).resolve().parents[1] / "conf"
+CONF = Path(__file__).resolve().parents[1] / "formation_rl" / "conf"
 PAPER_FRAMES, PAPER_RATIO = 9_000_000, 100
 
 

@@ -11,7 +11,7 @@ from torchrl.envs.utils import check_env_specs
 import formation_rl
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics, summarize
-from formation_rl.trainer import Trainer
+from formation_rl.training.trainer import Trainer
 
 pytestmark = pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
 
@@ -43,9 +43,9 @@ def test_per_priorities_on_cuda():
     from algorithms.conftest import D, N, make_batch
 
     from formation_rl.algorithms import MATD3
-    from formation_rl.config import AlgoConfig
+    from formation_rl.algorithms.config import AlgoConfig
     from formation_rl.models import make_actor, make_critic
-    from formation_rl.replay import make_replay_buffer
+    from formation_rl.training.replay import make_replay_buffer
 
     cfg = AlgoConfig(name="per_matd3", batch_size=16, buffer_size=64, priority_eps=1e-6)
     buffer = make_replay_buffer(cfg, torch.device("cuda"))
@@ -91,7 +91,7 @@ def test_cudagraph_steps_match_eager_steps(name):
     from algorithms.conftest import D, N, make_batch
 
     from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, make_algorithm
-    from formation_rl.config import AlgoConfig
+    from formation_rl.algorithms.config import AlgoConfig
     from formation_rl.models import make_actor, make_critic
 
     cfg = AlgoConfig(name=name, policy_noise=0.0, num_critics=1 if name == "maddpg" else 2,

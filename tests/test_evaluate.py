@@ -15,12 +15,12 @@ import yaml
 from test_train import tiny
 from torch.utils.tensorboard import SummaryWriter
 
-from formation_rl import diagnose, report
+from formation_rl.apps import diagnose, report
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
-from formation_rl.evaluate import evaluate_policy, mean_ci
-from formation_rl.policy import load_policy, output_dir
-from formation_rl.trainer import Trainer
+from formation_rl.evaluation.evaluate import evaluate_policy, mean_ci
+from formation_rl.evaluation.policy import load_policy, output_dir
+from formation_rl.training.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -63,7 +63,7 @@ def _cli(module, *args):
 
 
 def test_eval_cli_writes_json_and_csv(trained, tmp_path):
-    out = _cli("formation_rl.evaluate", f"ckpt={trained}", "episodes=12", "num_envs=5", f"out={tmp_path}")
+    out = _cli("formation_rl.apps.evaluate", f"ckpt={trained}", "episodes=12", "num_envs=5", f"out={tmp_path}")
     assert out.returncode == 0, out.stderr[-2000:]
     js = json.loads((tmp_path / "metrics.json").read_text())
     assert js["eval"]["episodes"] == 12 and js["eval"]["env"]["num_robots"] == 3 and js["length"] == 20
@@ -71,25 +71,25 @@ def test_eval_cli_writes_json_and_csv(trained, tmp_path):
     assert float(rows["CBRO"]["mean"]) == pytest.approx(js["CBRO"]) and "success" in rows
     assert "95% CI" in out.stdout
     # overrides change the world; a world the policy cannot read is one clear error
-    out = _cli("formation_rl.evaluate", f"ckpt={trained}", "episodes=3", "env.max_steps=7", f"out={tmp_path}")
+    out = _cli("formation_rl.apps.evaluate", f"ckpt={trained}", "episodes=3", "env.max_steps=7", f"out={tmp_path}")
     assert out.returncode == 0 and json.loads((tmp_path / "metrics.json").read_text())["length"] == 7
-    out = _cli("formation_rl.evaluate", f"ckpt={trained}", "env.num_robots=4", f"out={tmp_path}/x")
+    out = _cli("formation_rl.apps.evaluate", f"ckpt={trained}", "env.num_robots=4", f"out={tmp_path}/x")
     assert out.returncode == 2 and "env.num_robots = 4 is invalid: the policy was trained with 3 robots" in out.stderr
-    out = _cli("formation_rl.evaluate", "ckpt=/nonexistent/run")
+    out = _cli("formation_rl.apps.evaluate", "ckpt=/nonexistent/run")
     assert out.returncode == 2 and "ckpt = '/nonexistent/run' is invalid" in out.stderr
 
 
 def test_render_cli_writes_gif_and_figure_10(trained, tmp_path):
-    out = _cli("formation_rl.visualize", f"ckpt={trained}", "steps=[2,10,19]", f"out={tmp_path}")
+    out = _cli("formation_rl.apps.render", f"ckpt={trained}", "steps=[2,10,19]", f"out={tmp_path}")
     assert out.returncode == 0, out.stderr[-2000:]
     assert (tmp_path / "trajectories.png").stat().st_size > 10_000 and (tmp_path / "episode.gif").exists()
-    out = _cli("formation_rl.visualize", f"ckpt={trained}", "steps=[500]", f"out={tmp_path}")
+    out = _cli("formation_rl.apps.render", f"ckpt={trained}", "steps=[500]", f"out={tmp_path}")
     assert out.returncode == 2 and "steps = [500] is invalid" in out.stderr
 
 
-@pytest.mark.parametrize("module, args", [("formation_rl.evaluate", ["ckpt=apf", "episodes=1", "out={out}"]),
-                                          ("formation_rl.visualize", ["ckpt=apf", "out={out}"]),
-                                          ("formation_rl.rollout", [])])
+@pytest.mark.parametrize("module, args", [("formation_rl.apps.evaluate", ["ckpt=apf", "episodes=1", "out={out}"]),
+                                          ("formation_rl.apps.render", ["ckpt=apf", "out={out}"]),
+                                          ("formation_rl.apps.demo", [])])
 def test_unavailable_device_is_one_line_error_before_any_work(module, args, tmp_path):
     """`make eval|render|demo ARGS="device=cuda"` without the GPU: the one-line error training gives, no traceback."""
     args = [a.format(out=tmp_path / "out") for a in args]
@@ -100,8 +100,8 @@ def test_unavailable_device_is_one_line_error_before_any_work(module, args, tmp_
 
 
 def test_device_check_is_the_one_of_training(monkeypatch):
-    from formation_rl.cli import check_device
-    from formation_rl.config import TrainConfig, validate
+    from formation_rl.apps.cli import check_device
+    from formation_rl.training.config import TrainConfig, validate
 
     monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
     message = "device = 'cuda' is invalid: must be cpu here: CUDA is not available on this machine"
@@ -126,12 +126,12 @@ def test_eval_and_render_write_under_outputs_never_beside_the_checkpoint(tmp_pat
     shipped = tmp_path / "pretrained"
     shipped.mkdir()
     shutil.copy(ROOT / "pretrained" / "per_matd3_fast.pt", shipped / "fast.pt")
-    out = _cli_in(tmp_path, "formation_rl.evaluate", "ckpt=pretrained/fast.pt", "episodes=2", "num_envs=2")
+    out = _cli_in(tmp_path, "formation_rl.apps.evaluate", "ckpt=pretrained/fast.pt", "episodes=2", "num_envs=2")
     assert out.returncode == 0, out.stderr[-2000:]
     assert "per_matd3 residual=apf on 2 held-out episodes" in out.stdout
     assert json.loads((tmp_path / "outputs/eval/fast/metrics.json").read_text())["eval"]["policy"] == \
         "per_matd3 residual=apf"
-    out = _cli_in(tmp_path, "formation_rl.visualize", "ckpt=pretrained/fast.pt", "gif=false", "steps=[10]")
+    out = _cli_in(tmp_path, "formation_rl.apps.render", "ckpt=pretrained/fast.pt", "gif=false", "steps=[10]")
     assert out.returncode == 0, out.stderr[-2000:]
     assert (tmp_path / "outputs/render/fast/trajectories.png").is_file()
     assert [p.name for p in shipped.iterdir()] == ["fast.pt"]
@@ -280,7 +280,7 @@ def test_report_errors(tmp_path, capsys):
 
 @pytest.mark.parametrize("launcher", ["local", "slurm_local"])
 def test_two_job_multirun(tmp_path, launcher):
-    out = _cli("formation_rl.train", "-m", f"hydra/launcher={launcher}", f"hydra.sweep.dir={tmp_path}",
+    out = _cli("formation_rl.apps.train", "-m", f"hydra/launcher={launcher}", f"hydra.sweep.dir={tmp_path}",
                "algo=maddpg,matd3", "total_frames=400", "num_envs=4", "steps_per_batch=20",
                "algo.warmup_frames=160", "algo.batch_size=32", "eval_episodes=2", "env.max_steps=20",
                "model.hidden=[16,16]", "threads=1", "progress=false")
@@ -306,7 +306,7 @@ def test_report_rejects_mixed_team_sizes_and_runs_without_curves(tmp_path, capsy
 
 
 def test_corrupt_or_foreign_checkpoint_is_one_clear_error(tmp_path):
-    from formation_rl.policy import load_policy
+    from formation_rl.evaluation.policy import load_policy
 
     (tmp_path / "policy.pt").write_bytes(b"\x00garbage")
     with pytest.raises(ValueError, match="cannot be read .*: it is truncated or corrupt"):

@@ -13,9 +13,10 @@ from hydra import compose, initialize_config_dir
 from test_train import tiny
 
 from formation_rl.algorithms import NonFiniteError
-from formation_rl.cli import check_overrides
-from formation_rl.config import TrainConfig
-from formation_rl.trainer import CHECKPOINT, Trainer, load_checkpoint_file, to_train_config
+from formation_rl.apps.cli import check_overrides
+from formation_rl.training.checkpoint import CHECKPOINT, load_checkpoint_file
+from formation_rl.training.config import TrainConfig
+from formation_rl.training.trainer import Trainer, to_train_config
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ["total_frames=3200", "num_envs=8", "steps_per_batch=20", "algo.warmup_frames=320", "algo.batch_size=64",
@@ -24,7 +25,7 @@ TINY = ["total_frames=3200", "num_envs=8", "steps_per_batch=20", "algo.warmup_fr
 
 
 def _train(run: Path, *extra: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "formation_rl.train", *TINY, f"hydra.run.dir={run}", *extra],
+    return subprocess.Popen([sys.executable, "-m", "formation_rl.apps.train", *TINY, f"hydra.run.dir={run}", *extra],
                             cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
@@ -131,20 +132,22 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["cudagraphs=true"], "cudagraphs = True is invalid: must be false with device=cpu (CUDA graphs need"),
     ("train", ["env.max_speed=0"], "env.max_speed = 0.0 is invalid: must be a finite number > 0"),
     ("train", ["resume=/no/such/run"], "resume = '/no/such/run' is invalid: no checkpoint at /no/such/run"),
-    ("formation_rl.train", ["-m", "algo=maddpg,ppo"], "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3"),
-    ("formation_rl.evaluate", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
-    ("formation_rl.evaluate", ["ckpt=x", "episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
-    ("formation_rl.evaluate", ["ckpt=x", "num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
-    ("formation_rl.evaluate", ["ckpt=x", "formation=star"], "formation = 'star' is invalid: must be one of chain, v"),
-    ("formation_rl.evaluate", ["ckpt=x", "env.num_robot=3"], "env.num_robot: unknown key; allowed here:"),
-    ("formation_rl.evaluate", ["ckpt=x", "episodes=many"], "episodes = 'many' is invalid: Value 'many'"),
-    ("formation_rl.visualize", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
-    ("formation_rl.visualize", ["ckpt=x", "fps=fast"], "fps = 'fast' is invalid: Value 'fast'"),
-    ("formation_rl.rollout", ["num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
-    ("formation_rl.rollout", ["episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
-    ("formation_rl.rollout", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
-    ("formation_rl.report", ["/no/such/dir"], "runs: '/no/such/dir' does not exist"),
-    ("formation_rl.report", [".", "--smooth", "2"], "--smooth = 2.0 is invalid: must be in [0, 1)"),
+    ("formation_rl.apps.train", ["-m", "algo=maddpg,ppo"],
+     "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3"),
+    ("formation_rl.apps.evaluate", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
+    ("formation_rl.apps.evaluate", ["ckpt=x", "episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.apps.evaluate", ["ckpt=x", "num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.apps.evaluate", ["ckpt=x", "formation=star"],
+     "formation = 'star' is invalid: must be one of chain, v"),
+    ("formation_rl.apps.evaluate", ["ckpt=x", "env.num_robot=3"], "env.num_robot: unknown key; allowed here:"),
+    ("formation_rl.apps.evaluate", ["ckpt=x", "episodes=many"], "episodes = 'many' is invalid: Value 'many'"),
+    ("formation_rl.apps.render", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
+    ("formation_rl.apps.render", ["ckpt=x", "fps=fast"], "fps = 'fast' is invalid: Value 'fast'"),
+    ("formation_rl.apps.demo", ["num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.apps.demo", ["episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.apps.demo", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
+    ("formation_rl.apps.report", ["/no/such/dir"], "runs: '/no/such/dir' does not exist"),
+    ("formation_rl.apps.report", [".", "--smooth", "2"], "--smooth = 2.0 is invalid: must be in [0, 1)"),
 ]
 
 
@@ -157,9 +160,9 @@ def test_bad_input_is_one_line_before_compute(tmp_path, capsys, entry, args, mes
     if entry == "train":
         with pytest.raises((SystemExit, ValueError)) as err:
             check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "env"), args)
-            import formation_rl.train  # noqa: F401  (registers the schema)
+            import formation_rl.apps.train  # noqa: F401  (registers the schema)
 
-            with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base=None):
+            with initialize_config_dir(config_dir=str(ROOT / "formation_rl" / "conf"), version_base=None):
                 cfg = compose(config_name="config", overrides=args)
             Trainer(to_train_config(cfg), tmp_path).load_checkpoint(cfg.resume)
         text = capsys.readouterr().err.strip() if err.type is SystemExit else f"error: {err.value}"

@@ -12,10 +12,11 @@ import torch
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 import formation_rl
-from formation_rl.config import TrainConfig
-from formation_rl.controllers import APFController
 from formation_rl.envs import EnvConfig, FormationEnv
-from formation_rl.trainer import CHECKPOINT, POLICY, Trainer
+from formation_rl.models.controller import APFController
+from formation_rl.training.checkpoint import CHECKPOINT, POLICY
+from formation_rl.training.config import TrainConfig
+from formation_rl.training.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -160,7 +161,7 @@ def test_learns_to_reach_the_goal(tmp_path):
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "formation_rl.train", *args], cwd=ROOT, capture_output=True,
+    return subprocess.run([sys.executable, "-m", "formation_rl.apps.train", *args], cwd=ROOT, capture_output=True,
                           text=True, timeout=600)
 
 
@@ -182,10 +183,10 @@ def test_cli_tiny_run_and_errors(tmp_path):
     assert bad.returncode != 0 and "lr_actr" in bad.stderr
 
 
-@pytest.mark.parametrize("module, args", [("formation_rl.train", ["algo=apf"]),
-                                          ("formation_rl.evaluate", ["ckpt=nonexistent.pt"]),
-                                          ("formation_rl.visualize", []),
-                                          ("formation_rl.rollout", ["episodes=0"])])
+@pytest.mark.parametrize("module, args", [("formation_rl.apps.train", ["algo=apf"]),
+                                          ("formation_rl.apps.evaluate", ["ckpt=nonexistent.pt"]),
+                                          ("formation_rl.apps.render", []),
+                                          ("formation_rl.apps.demo", ["episodes=0"])])
 def test_refused_calls_leave_no_run_directory(module, args, tmp_path):
     """A refused call left an empty timestamped run directory (outputs/train/apf/<date>/ for algo=apf)."""
     out = subprocess.run([sys.executable, "-m", module, *args], cwd=tmp_path, capture_output=True, text=True,
@@ -199,9 +200,9 @@ def test_default_budget_learning_check(tmp_path):
     """`make train` (PER-MATD3, default budget): evaluation against the untrained policy's (frame 0)."""
     from hydra import compose, initialize_config_dir
 
-    import formation_rl.train  # noqa: F401  (registers the schema)
+    import formation_rl.apps.train  # noqa: F401  (registers the schema)
 
-    with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base=None):
+    with initialize_config_dir(config_dir=str(ROOT / "formation_rl" / "conf"), version_base=None):
         cfg = compose(config_name="config", overrides=["progress=false"])
     trainer = Trainer(cfg, tmp_path)
     final = trainer.train()
@@ -309,11 +310,11 @@ def test_fast_budget_composes_to_the_residual_recipe():
     """`make train-fast` (budget=fast): residual actors on apf, anchored, relative positions; valid as composed."""
     from hydra import compose, initialize_config_dir
 
-    from formation_rl.config import register, validate
-    from formation_rl.trainer import to_train_config
+    from formation_rl.training.config import register, validate
+    from formation_rl.training.trainer import to_train_config
 
     register()
-    with initialize_config_dir(str(Path(__file__).resolve().parents[1] / "conf"), version_base=None):
+    with initialize_config_dir(str(Path(__file__).resolve().parents[1] / "formation_rl" / "conf"), version_base=None):
         cfg = to_train_config(compose("config", overrides=["budget=fast"]))
     validate(cfg)
     assert cfg.model.residual == "apf" and cfg.algo.actor_init == "random" and cfg.algo.bc_weight > 0

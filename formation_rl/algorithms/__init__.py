@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from formation_rl.algorithms.base import PRIORITY_KEY, WEIGHT_KEY, Algorithm, NonFiniteError
+from formation_rl.algorithms.config import AlgoConfig
 from formation_rl.algorithms.maddpg import MADDPG
 from formation_rl.algorithms.matd3 import MATD3
-from formation_rl.config import AlgoConfig
 
 
 def make_algorithm(actor, critic, cfg: AlgoConfig) -> Algorithm:

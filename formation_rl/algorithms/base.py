@@ -8,7 +8,7 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule, SoftUpdate, ValueEstimators
 
-from formation_rl.config import AlgoConfig
+from formation_rl.algorithms.config import AlgoConfig
 from formation_rl.models.networks import ResidualActor
 
 KEYS = dict(

@@ -6,7 +6,7 @@ from tensordict.nn import TensorDictModule
 from torchrl.objectives import DDPGLoss
 
 from formation_rl.algorithms.base import Algorithm
-from formation_rl.config import AlgoConfig
+from formation_rl.algorithms.config import AlgoConfig
 
 
 class MADDPG(Algorithm):

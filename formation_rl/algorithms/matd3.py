@@ -11,7 +11,7 @@ from tensordict.nn import TensorDictModule
 from torchrl.objectives import TD3Loss
 
 from formation_rl.algorithms.base import Algorithm
-from formation_rl.config import AlgoConfig
+from formation_rl.algorithms.config import AlgoConfig
 
 
 class MATD3(Algorithm):

@@ -4,7 +4,7 @@ import pytest
 import torch
 
 from formation_rl.algorithms import MADDPG, MATD3
-from formation_rl.config import AlgoConfig
+from formation_rl.algorithms.config import AlgoConfig
 from formation_rl.models import make_actor, make_critic
 
 from .conftest import D, N, make_batch

@@ -3,9 +3,9 @@
 import torch
 
 from formation_rl.algorithms import MATD3
-from formation_rl.config import AlgoConfig
+from formation_rl.algorithms.config import AlgoConfig
 from formation_rl.models import make_actor, make_critic
-from formation_rl.replay import make_replay_buffer
+from formation_rl.training.replay import make_replay_buffer
 
 from .conftest import D, N, make_batch
 

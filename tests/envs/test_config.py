@@ -7,11 +7,11 @@ import pytest
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
-import formation_rl.rollout  # noqa: F401  (registers the rollout schema)
+import formation_rl.apps.demo  # noqa: F401  (registers the rollout schema)
 from formation_rl.envs import EnvConfig, FormationConfig, FormationEnv
 from formation_rl.envs.config import RewardConfig
 
-CONF = str(Path(__file__).resolve().parents[2] / "conf")
+CONF = str(Path(__file__).resolve().parents[2] / "formation_rl" / "conf")
 
 
 def compose_env(*overrides):

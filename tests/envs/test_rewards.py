@@ -192,7 +192,7 @@ def test_shaped_reward_config_composes():
     """conf/reward/shaped.yaml: the hybrid switch with progress terms; the paper's variants keep their weights."""
     from omegaconf import OmegaConf
 
-    shaped = OmegaConf.load("conf/reward/shaped.yaml")
+    shaped = OmegaConf.load("formation_rl/conf/reward/shaped.yaml")
     assert shaped.variant == "hybrid" and shaped.leader_progress > 0 and shaped.follower_progress > 0
     paper = RewardConfig()
     assert (paper.leader_distance, paper.leader_progress, paper.follower_error, paper.follower_progress,

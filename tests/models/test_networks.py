@@ -178,7 +178,7 @@ def test_bf16_gradients_are_close_to_fp32():
 def test_bf16_is_refused_where_the_cpu_lacks_it(monkeypatch):
     import pytest
 
-    from formation_rl.config import TrainConfig, validate
+    from formation_rl.training.config import TrainConfig, validate
 
     monkeypatch.setattr("formation_rl.models.bf16_supported", lambda device: False)
     with pytest.raises(ValueError, match=r"^precision = 'bf16' is invalid: must be fp32 on this cpu"):

@@ -1,0 +1,52 @@
+"""The algorithm's settings (the ``algo`` part of the training schema,
+:class:`~formation_rl.training.config.TrainConfig`; ``conf/algo/*.yaml``). Defaults are SPEC §5 unless marked choice."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass
+class AlgoConfig:
+    name: str = "per_matd3"  # maddpg | matd3 | per_matd3
+    num_critics: int = 2  # twin critics, target = min of the two (eq. 7); 1 for MADDPG
+    policy_noise: float = 0.2  # target policy smoothing N(0, lambda) (eq. 8, paper lambda = 0.2); 0 for MADDPG
+    noise_clip: float = 0.5  # clip of that noise (eq. 8)
+    policy_delay: int = 2  # d: actor and target update every d critic steps
+    prioritized: bool = True  # PER (section 3.3)
+    alpha: float = 0.6  # priority exponent (paper)
+    beta: float = 0.5  # importance-sampling exponent (paper)
+    beta_final: float | None = None  # anneal beta linearly to this by the end of training (choice; None: constant)
+    priority_eps: float = 1e-6  # p = (max |delta| + eps)^alpha (choice)
+    lr_actor: float = 1e-3  # (paper)
+    lr_critic: float = 1e-3  # (paper)
+    gamma: float = 0.95  # (paper)
+    tau: float = 0.01  # soft target update (choice)
+    batch_size: int = 1024  # (paper)
+    buffer_size: int = 1_000_000  # (paper)
+    update_every: int = 100  # collected frames per gradient step (paper: update every 100 steps)
+    n_steps: int = 1  # TD target over n steps (TorchRL's MultiStep on each collector batch); 1: the paper's
+    #                   one-step target (eq. 7); episodes and collector batches cut it short
+    action_reg: float = 1e-3  # actor loss += action_reg * mean(pre-tanh^2), against tanh saturation (choice:
+    #                           the MADDPG reference implementation's value; 0 turns it off)
+    warmup_frames: int = 10_000  # frames collected before the first update (choice)
+    warmup_policy: str = "random"  # who acts in them: random (uniform actions) | apf (the classical controller
+    #                                with the exploration noise: demonstrations in the buffer) (choice)
+    actor_init: str = "random"  # random (PyTorch's init) | apf: behaviour-clone the classical controller into the
+    #                             actors before training, its demonstrations also put in the buffer (choice)
+    bc_frames: int = 150_000  # actor_init=apf: frames of demonstrations (every other round with bc_noise on the
+    #                           executed action, labelled with the controller's own action)
+    bc_steps: int = 3_000  # actor_init=apf: gradient steps of the cloning fit (MSE, batch_size, bc_lr)
+    bc_noise: float = 0.2  # actor_init=apf: Gaussian noise on the executed action in the noisy rounds
+    bc_dagger_rounds: int = 0  # actor_init=apf: DAgger rounds after the first fit (the clone drives bc_frames / 2
+    #                            frames, the controller labels them, the fit goes on for bc_steps / 2 steps)
+    bc_lr: float = 1e-3  # actor_init=apf: Adam learning rate of the cloning fit
+    bc_weight: float = 0.0  # > 0: the actor loss becomes -Q / mean|Q| + bc_weight * mean((a - apf(o))^2) on every
+    #                         batch (TD3+BC's form, the classical controller as the anchor); 0: the paper's -Q
+    critic_warmup_steps: int = 0  # first gradient steps that train the critics only (targets still follow):
+    #                               the critics learn the initial actors' value before the actors move (choice)
+    exploration_sigma: float = 0.3  # Gaussian exploration noise on the collection policy, start (choice)
+    exploration_sigma_end: float = 0.05  # ... end (choice)
+    exploration_anneal: float = 0.5  # fraction of total_frames over which sigma anneals (choice)
+    exploration_eps: float = 0.0  # per robot and step, the chance that a uniform random action replaces the noisy
+    #                               one (TorchRL's EGreedyModule; ours: lets a robot pinned at a wall try moving off)

@@ -1,0 +1,47 @@
+"""Train MADDPG / MATD3 / PER-MATD3: ``python -m formation_rl.apps.train algo=per_matd3 [overrides]``.
+
+Writes TensorBoard events (``tb/``), checkpoints (``checkpoints/last.pt``, ``checkpoints/policy.pt``)
+and the final evaluation (``metrics.json``) into the Hydra run directory.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig
+
+from formation_rl.apps.cli import CONF, one_line_errors
+from formation_rl.training.config import register
+from formation_rl.training.trainer import Trainer
+
+register()
+log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/job_logging/plain.yaml)
+
+
+@hydra.main(config_path=str(CONF), config_name="config", version_base=None)
+@one_line_errors
+def main(cfg: DictConfig) -> float:
+    run_dir = Path(HydraConfig.get().runtime.output_dir)
+    trainer = Trainer(cfg, run_dir)
+    if cfg.resume:
+        trainer.load_checkpoint(cfg.resume)
+    metrics = trainer.train()
+    (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    width = max(map(len, metrics))
+    log.info(f"final evaluation ({cfg.eval_episodes} held-out episodes):")
+    log.info("\n".join(f"  {k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
+    log.info(f"wall time {trainer.timings.total():.0f} s: {trainer.timings.summary()}")
+    log.info(f"run directory: {run_dir}")
+    return metrics["episode_reward"]
+
+
+if __name__ == "__main__":
+    from formation_rl.apps.cli import check_overrides
+    from formation_rl.training.config import TrainConfig
+
+    check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "env"))
+    main()

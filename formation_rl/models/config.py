@@ -1,0 +1,15 @@
+"""The actors' architecture, as a checkpoint records it: part of the training schema
+(:class:`~formation_rl.training.config.TrainConfig`), read back by :func:`~formation_rl.load_policy`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class ModelConfig:
+    hidden: list[int] = field(default_factory=lambda: [128, 128])  # actor and critic hidden layers (paper)
+    activation: str = "relu"  # (paper)
+    residual: str = "none"  # none: the paper's actors | apf: each actor outputs a correction to the classical
+    # controller, clip(apf(o) + residual_scale * tanh(mu(o)), -1, 1), starting at zero (ours, not the paper's)
+    residual_scale: float = 0.5  # model.residual=apf: the largest correction per action component

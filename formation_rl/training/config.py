@@ -1,0 +1,114 @@
+"""Typed training configuration (Hydra ConfigStore schema). Defaults are SPEC §5 unless marked choice.
+
+``conf/config.yaml`` and the ``conf/algo/`` and ``conf/budget/`` groups fill these; a misspelt key
+or a wrong type fails at start with Hydra's message, an out-of-range value with ``validate``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from hydra.core.config_store import ConfigStore
+
+from formation_rl.algorithms.config import AlgoConfig
+from formation_rl.envs.config import EnvConfig
+from formation_rl.models.config import ModelConfig
+
+ALGORITHMS = ("maddpg", "matd3", "per_matd3")
+__all__ = ["ALGORITHMS", "AlgoConfig", "ModelConfig", "TrainConfig", "register", "validate"]
+
+
+@dataclass
+class TrainConfig:
+    env: EnvConfig = field(default_factory=EnvConfig)
+    algo: AlgoConfig = field(default_factory=AlgoConfig)
+    model: ModelConfig = field(default_factory=ModelConfig)
+    seed: int = 0  # training seed: networks, exploration and training scenarios
+    start_anywhere: float = 0.0  # share of training episodes whose robots start anywhere in the arena (exploring
+    #                              starts, ours); evaluation always starts in the SPEC's square
+    total_frames: int = 300_000  # frames = transitions of one env copy (SPEC §5); paper: 9,000,000
+    num_envs: int = 64  # env copies stepped together by the collector
+    steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames
+    device: str = "cpu"  # cpu | cuda | cuda:0 ...
+    compile_env: bool = False  # torch.compile the env's step program (faster at large num_envs)
+    cudagraphs: bool = False  # replay each gradient step from CUDA graphs (device=cuda; the policy is not graphed)
+    eval_interval: int = 100_000  # frames between deterministic evaluations (and at the end)
+    eval_episodes: int = 100  # held-out episodes per evaluation, run as that many batched copies
+    eval_seed: int = 1_000_000_007  # scenario seed of the evaluation set, disjoint from training seeds
+    checkpoint_interval: int = 100_000  # frames between checkpoints (and at the end)
+    save_buffer: bool = False  # also checkpoint the replay buffer (large: ~1 kB per frame)
+    resume: str | None = None  # a checkpoint file or run directory to continue from; "auto": this run's
+    progress: bool = True  # progress bar
+    threads: int | None = None  # torch intra-op threads (None: torch's default; sweeps set 1 per job)
+    precision: str = "fp32"  # fp32 | bf16: the update's forward and backward under bf16 autocast (hidden layers;
+    #                          fp32 weights, optimiser, output layers, TD targets and priorities); bf16 needs a CPU
+    #                          with AVX512-BF16/AMX or a GPU with bf16
+
+
+def register() -> None:
+    ConfigStore.instance().store(name="train_schema", node=TrainConfig)
+
+
+def validate(cfg: TrainConfig) -> None:
+    """One ``ValueError`` per bad value, naming the field, the value and what is allowed."""
+    a = cfg.algo
+
+    def check(ok: bool, name: str, value, allowed: str) -> None:
+        if not ok:
+            raise ValueError(f"{name} = {value!r} is invalid: must be {allowed}")
+
+    if a.name == "apf":
+        raise ValueError("algo.name = 'apf' is invalid for training: apf is the classical controller and learns "
+                         "nothing; evaluate it with `make eval CKPT=apf` (render: `make render CKPT=apf`)")
+    check(a.name in ALGORITHMS, "algo.name", a.name, f"one of {', '.join(ALGORITHMS)}")
+    check(a.num_critics in (1, 2), "algo.num_critics", a.num_critics, "1 or 2")
+    for name in ("lr_actor", "lr_critic"):
+        check(getattr(a, name) > 0, f"algo.{name}", getattr(a, name), "> 0")
+    for name in ("gamma", "tau", "alpha", "beta"):
+        check(0 <= getattr(a, name) <= 1, f"algo.{name}", getattr(a, name), "in [0, 1]")
+    check(a.beta_final is None or 0 <= a.beta_final <= 1, "algo.beta_final", a.beta_final, "null or in [0, 1]")
+    check(a.priority_eps > 0, "algo.priority_eps", a.priority_eps, "> 0")
+    check(a.policy_noise >= 0 and a.noise_clip >= 0, "algo.policy_noise", a.policy_noise, ">= 0 (noise_clip too)")
+    check(a.policy_delay >= 1, "algo.policy_delay", a.policy_delay, "an integer >= 1")
+    check(a.batch_size >= 1, "algo.batch_size", a.batch_size, "an integer >= 1")
+    check(a.buffer_size >= a.batch_size, "algo.buffer_size", a.buffer_size, f">= algo.batch_size ({a.batch_size})")
+    check(a.update_every >= 1, "algo.update_every", a.update_every, "an integer >= 1")
+    check(a.n_steps >= 1, "algo.n_steps", a.n_steps, "an integer >= 1")
+    check(a.action_reg >= 0, "algo.action_reg", a.action_reg, ">= 0")
+    check(a.warmup_frames >= 0, "algo.warmup_frames", a.warmup_frames, ">= 0")
+    check(a.warmup_policy in ("random", "apf"), "algo.warmup_policy", a.warmup_policy, "random or apf")
+    check(a.actor_init in ("random", "apf"), "algo.actor_init", a.actor_init, "random or apf")
+    for name in ("bc_frames", "bc_steps", "bc_dagger_rounds", "critic_warmup_steps"):
+        check(getattr(a, name) >= 0, f"algo.{name}", getattr(a, name), "an integer >= 0")
+    check(a.bc_noise >= 0, "algo.bc_noise", a.bc_noise, ">= 0")
+    check(a.bc_lr > 0, "algo.bc_lr", a.bc_lr, "> 0")
+    check(a.bc_weight >= 0, "algo.bc_weight", a.bc_weight, ">= 0")
+    check(a.exploration_sigma >= a.exploration_sigma_end >= 0, "algo.exploration_sigma", a.exploration_sigma,
+          f">= exploration_sigma_end ({a.exploration_sigma_end}) >= 0")
+    check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")
+    check(0 <= a.exploration_eps <= 1, "algo.exploration_eps", a.exploration_eps, "in [0, 1]")
+    check(len(cfg.model.hidden) >= 1 and all(h >= 1 for h in cfg.model.hidden), "model.hidden", cfg.model.hidden,
+          "a non-empty list of positive layer sizes")
+    check(cfg.model.residual in ("none", "apf"), "model.residual", cfg.model.residual, "none or apf")
+    check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
+    check(cfg.model.residual == "none" or a.actor_init == "random", "algo.actor_init", a.actor_init,
+          "random with model.residual=apf (the residual actors start as the controller already)")
+    check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
+    check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
+    check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")
+    check(cfg.steps_per_batch >= 1, "steps_per_batch", cfg.steps_per_batch, "an integer >= 1")
+    for name in ("eval_interval", "checkpoint_interval", "eval_episodes"):
+        check(getattr(cfg, name) >= 1, name, getattr(cfg, name), "an integer >= 1")
+    check(cfg.threads is None or cfg.threads >= 1, "threads", cfg.threads, "null or an integer >= 1")
+    from formation_rl.utils import check_device  # the check make eval, render and demo make too
+
+    check_device(cfg.device)
+    check(cfg.precision in ("fp32", "bf16"), "precision", cfg.precision, "fp32 or bf16")
+    if cfg.precision == "bf16":
+        from formation_rl.models import bf16_supported
+
+        check(bf16_supported(cfg.device), "precision", cfg.precision,
+              f"fp32 on this {cfg.device}: it has no native bf16 (CPU: AVX512-BF16 or AMX; GPU: bf16 support), "
+              "where bf16 would run slower, not faster")
+    check(not cfg.cudagraphs or cfg.device.startswith("cuda"), "cudagraphs", cfg.cudagraphs,
+          f"false with device={cfg.device} (CUDA graphs need device=cuda)")

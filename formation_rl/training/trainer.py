@@ -1,0 +1,448 @@
+"""The training loop: collect -> extend -> sample -> losses -> optimisers -> soft update -> priorities -> log.
+
+One :class:`Trainer` per run directory; ``train()`` runs to ``total_frames``, evaluating and
+checkpointing on the way. Everything a resume needs is in ``checkpoints/last.pt``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import random
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+from omegaconf import DictConfig, OmegaConf
+from tensordict import TensorDict, TensorDictBase
+from tensordict.nn import TensorDictModuleBase, TensorDictSequential
+from torchrl.collectors import Collector
+from torchrl.data.postprocs import MultiStep
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+from torchrl.modules import AdditiveGaussianModule, EGreedyModule
+from torchrl.record.loggers.tensorboard import TensorboardLogger
+from tqdm import tqdm
+
+import formation_rl
+from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, NonFiniteError, make_algorithm
+from formation_rl.envs import EnvConfig, FormationEnv
+from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
+from formation_rl.models import make_actor, make_critic, set_precision
+from formation_rl.models.controller import residual_base
+from formation_rl.training.checkpoint import (
+    _COMPLETE,
+    BUFFER_DIR,
+    CHECKPOINT,
+    FORMAT,
+    POLICY,
+    atomic_save,
+    buffer_dump_to_load,
+    dump_buffer,
+    load_checkpoint_file,
+    resolve_checkpoint,
+)
+from formation_rl.training.config import TrainConfig, validate
+from formation_rl.training.replay import make_replay_buffer, to_transitions
+from formation_rl.training.timing import Timings
+
+
+def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
+    """A typed ``TrainConfig`` from Hydra's config (or a plain dict); the env part validated."""
+    if isinstance(cfg, TrainConfig):
+        return cfg
+    if isinstance(cfg, DictConfig):
+        cfg = OmegaConf.to_container(cfg, resolve=True)
+    cfg = dict(cfg)
+    out = TrainConfig(**{k: v for k, v in cfg.items() if k not in ("env", "algo", "model")})
+    out.env = EnvConfig.from_dict(cfg.get("env", {}))
+    out.algo = dataclasses.replace(out.algo, **cfg.get("algo", {}))
+    out.model = dataclasses.replace(out.model, **cfg.get("model", {}))
+    return out
+
+
+class _Switch(TensorDictModuleBase):
+    """The collection policy: ``first`` while ``self.first`` is set, then ``then`` (same keys)."""
+
+    def __init__(self, first: TensorDictModuleBase, then: TensorDictModuleBase, active: bool):
+        super().__init__()
+        self.in_keys, self.out_keys = then.in_keys, then.out_keys
+        self.first_policy, self.then_policy, self.first = first, then, active
+
+    def forward(self, td: TensorDictBase) -> TensorDictBase:
+        return (self.first_policy if self.first else self.then_policy)(td)
+
+
+class _Demonstrator(TensorDictModuleBase):
+    """Acts with ``teacher`` plus ``noise`` (Gaussian, clipped to the box), or with ``actor`` when set, and
+    keeps every observation with the teacher's own, noise-free action: the behaviour-cloning (and DAgger)
+    data of ``algo.actor_init=apf``."""
+
+    def __init__(self, teacher: TensorDictModuleBase):
+        super().__init__()
+        self.in_keys, self.out_keys = teacher.in_keys, teacher.out_keys
+        self.teacher, self.noise, self.actor = teacher, 0.0, None
+        self.observations: list[torch.Tensor] = []  # [copies, N, D] per step
+        self.labels: list[torch.Tensor] = []  # [copies, N, 2] per step
+
+    def forward(self, td: TensorDictBase) -> TensorDictBase:
+        clean = self.teacher(td).get(("agents", "action")).clone()
+        self.observations.append(td.get(("agents", "observation")).clone())
+        self.labels.append(clean)
+        if self.actor is not None:  # another policy acts (DAgger); the teacher only labels
+            self.actor(td)
+        elif self.noise > 0:
+            td.set(("agents", "action"), (clean + self.noise * torch.randn_like(clean)).clamp(-1.0, 1.0))
+        return td
+
+
+class Trainer:
+    def __init__(self, cfg: TrainConfig | DictConfig | dict, run_dir: str | Path):
+        cfg = to_train_config(cfg)
+        validate(cfg)
+        cfg.env.validate()
+        self.cfg, self.run_dir = cfg, Path(run_dir)
+        _check_writable(self.run_dir)
+        if cfg.threads:
+            torch.set_num_threads(cfg.threads)
+        a = cfg.algo
+        self._seed_everything(cfg.seed)
+        dev = torch.device(cfg.device)
+        self.env = FormationEnv(cfg.num_envs, config=cfg.env, device=dev, seed=cfg.seed,
+                                compile_physics=cfg.compile_env, start_anywhere=cfg.start_anywhere)
+        self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
+        n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
+        self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
+                                residual_scale=cfg.model.residual_scale).to(dev)
+        critic = make_critic(n, d, hidden, cfg.model.activation).to(dev)
+        set_precision(self.actor, cfg.precision)
+        set_precision(critic, cfg.precision)
+        self.algo = make_algorithm(self.actor, critic, a)
+        if a.bc_weight > 0:  # the classical controller anchors the actor loss
+            from formation_rl.models.controller import APFController
+
+            self.algo.anchor = APFController(cfg.env).to(dev)
+        if cfg.cudagraphs:
+            self.algo.enable_cudagraphs()
+        # exploration noise on the collection policy only (evaluation and targets use self.actor)
+        self.noise = AdditiveGaussianModule(
+            spec=self.env.full_action_spec_unbatched[("agents", "action")].to(dev), sigma_init=a.exploration_sigma,
+            sigma_end=a.exploration_sigma_end, annealing_num_steps=max(1, int(a.exploration_anneal * cfg.total_frames)),
+            action_key=("agents", "action"), safe=True, device=dev,
+        )
+        self.explore = TensorDictSequential(self.actor, self.noise)
+        if a.exploration_eps > 0:  # uniform random actions now and then, per robot (constant chance)
+            self.explore.append(EGreedyModule(
+                self.env.full_action_spec_unbatched[("agents", "action")].to(dev), eps_init=a.exploration_eps,
+                eps_end=a.exploration_eps, action_key=("agents", "action"), device=dev))
+        self.warmup = None  # algo.warmup_policy=apf: the classical controller (+ the same noise) collects warm-up
+        if a.warmup_policy == "apf":
+            from formation_rl.models.controller import apf_policy
+
+            self.warmup = TensorDictSequential(apf_policy(cfg.env).to(dev), self.noise)
+        self.timings = Timings()  # wall time per section of the loop (train.log, perf/share_*)
+        self.timings.watch_policy(self.explore)
+        self.buffer = make_replay_buffer(a, dev)
+        self.multistep = None
+        if a.n_steps > 1:  # n-step TD targets: rewards summed and "next" shifted within each collector batch
+            self.multistep = MultiStep(a.gamma, a.n_steps).to(dev)
+            self.multistep.reward_keys = (("agents", "reward"),)
+        self.tracker = EpisodeTracker(cfg.num_envs, cfg.env.goal_radius, dev)
+        self.frames = self.episodes = 0
+        self._resumed_frames = 0  # frames already done when this process started (for frames/s)
+        self.next_eval, self.next_checkpoint = cfg.eval_interval, cfg.checkpoint_interval
+        self.last_eval: dict[str, float] = {}
+        self.eval_frame = -1  # frames at the last evaluation
+        self.logger: TensorboardLogger | None = None
+        self.on_evaluate: list = []  # callables (frames, metrics) run after every evaluation
+        self._rng = _rng_state()  # train() starts from here, whatever ran in between (or the checkpoint's)
+
+    # ------------------------------------------------------------------ the loop
+    def train(self) -> dict[str, float]:
+        """Train to ``total_frames``; return the final evaluation's metrics."""
+        cfg, a = self.cfg, self.cfg.algo
+        _set_rng_state(self._rng)
+        setup = time.perf_counter()
+        self.logger = TensorboardLogger(exp_name="tb", log_dir=str(self.run_dir))
+        remaining = cfg.total_frames - self.frames
+        per_batch = cfg.num_envs * cfg.steps_per_batch
+        learn_from = max(a.batch_size, a.warmup_frames)  # no update before the buffer holds this much
+        batches = -(-max(remaining, 1) // per_batch)  # whole collector batches (the last one may overshoot)
+        warmup_batches = -(-max(0, a.warmup_frames - self.frames) // per_batch)
+        policy = self.explore if self.warmup is None else _Switch(self.warmup, self.explore, warmup_batches > 0)
+        collector = Collector(
+            self.env, policy, frames_per_batch=per_batch, total_frames=batches * per_batch,
+            init_random_frames=warmup_batches * per_batch if self.warmup is None else 0, device=cfg.device,
+            auto_register_policy_transforms=False,
+        )
+        self.timings.add("setup", time.perf_counter() - setup)
+        bar = tqdm(total=cfg.total_frames, initial=self.frames, unit="frame", unit_scale=True,
+                   disable=not cfg.progress, desc=a.name, dynamic_ncols=True)
+        if self.frames == 0:
+            if a.actor_init == "apf":
+                self.evaluate()  # the untrained actors, then the cloned ones (both at frame 0)
+                self.clone_classical()
+            self.evaluate()  # the untrained (or cloned) policy: the baseline every curve starts from
+        credit, start, steps0 = 0, time.perf_counter(), self.algo.critic_steps
+        latest: dict[str, float] = {}
+        timings, waited_from, policy_seconds = self.timings, time.perf_counter(), self.timings.seconds["policy"]
+        try:
+            for data in collector:
+                # the collector's wait is env stepping plus the policy's forward passes (timed by hooks)
+                timings.add("env", time.perf_counter() - waited_from - (timings.seconds["policy"] - policy_seconds))
+                if self.frames >= cfg.total_frames:
+                    break
+                self.frames += data.numel()
+                if isinstance(policy, _Switch):
+                    policy.first = self.frames < a.warmup_frames  # the controller's warm-up is over
+                with timings("metrics"):
+                    _check_inputs(data, self.frames)
+                    finished = self.tracker.update(data)
+                    self.episodes += finished["length"].numel()
+                with timings("buffer_extend"):
+                    self.buffer.extend(to_transitions(data if self.multistep is None else self.multistep(data)))
+                # one gradient step (every robot at once) per update_every collected frames
+                credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
+                losses = []
+                while credit >= a.update_every:
+                    credit -= a.update_every
+                    try:
+                        losses.append(self._gradient_step())
+                    except NonFiniteError as err:
+                        raise NonFiniteError(f"training stopped at frame {self.frames:,} (gradient step "
+                                             f"{self.algo.critic_steps + 1}): {err}; the last good checkpoint "
+                                             f"{self.run_dir / CHECKPOINT} is kept") from None
+                self.noise.step(data.numel())
+                with timings("logging"):
+                    latest = self._log_train(finished, losses, latest, start, steps0)
+                if self.frames >= self.next_eval:
+                    self.evaluate()
+                    self.next_eval += cfg.eval_interval
+                if self.frames >= self.next_checkpoint:
+                    self.save_checkpoint()
+                    self.next_checkpoint += cfg.checkpoint_interval
+                with timings("logging"):
+                    bar.update(data.numel())
+                    bar.set_postfix(self._postfix(latest, start), refresh=False)
+                waited_from, policy_seconds = time.perf_counter(), timings.seconds["policy"]
+        finally:
+            collector.shutdown()
+            bar.close()
+        final = self.last_eval if self.eval_frame == self.frames else self.evaluate()
+        self.save_checkpoint()
+        self.logger.experiment.flush()
+        return final
+
+    def clone_classical(self) -> float:
+        """``algo.actor_init=apf``: behaviour cloning of the classical controller into the actors.
+
+        The controller drives the training env copies for ``bc_frames`` frames (every other round with
+        ``bc_noise`` on the executed action, so that the actors also see how it recovers from being
+        pushed off its path); each actor is fitted to its robot's controller action on its own
+        observation (MSE, ``bc_steps`` steps of ``batch_size``, Adam at ``bc_lr``). Then
+        ``bc_dagger_rounds`` rounds of DAgger: the cloned actors drive for ``bc_frames / 2`` frames,
+        every observation they reach is labelled with the controller's action and added to the data,
+        and the fit goes on for ``bc_steps / 2`` steps. The target actors are copied from the result.
+        Every frame driven here (executed actions, rewards) also goes in the replay buffer.
+        Returns the final fit loss.
+        """
+        from formation_rl.models.controller import apf_policy
+
+        cfg, a = self.cfg, self.cfg.algo
+        demo = _Demonstrator(apf_policy(cfg.env).to(self.env.device))
+        per_round = cfg.num_envs * cfg.env.max_steps
+        optim = torch.optim.Adam(self.actor.parameters(), lr=a.bc_lr)
+        bar = tqdm(total=a.bc_steps + a.bc_dagger_rounds * (a.bc_steps // 2), desc="behaviour cloning (apf)",
+                   unit="step", disable=not cfg.progress, dynamic_ncols=True)
+        loss, per_robot, step = torch.zeros(()), torch.zeros(()), 0
+        for phase in range(1 + a.bc_dagger_rounds):
+            frames, steps = (a.bc_frames, a.bc_steps) if phase == 0 else (a.bc_frames // 2, a.bc_steps // 2)
+            demo.actor = None if phase == 0 else self.actor  # DAgger: the clone drives, the controller labels
+            with self.timings("behaviour_cloning"), torch.no_grad():
+                for r in range(max(1, -(-frames // per_round))):
+                    demo.noise = a.bc_noise if phase == 0 and r % 2 == 1 else 0.0
+                    rollout = self.env.rollout(cfg.env.max_steps, demo, break_when_any_done=False)
+                    self.buffer.extend(to_transitions(rollout))
+            obs, labels = torch.cat(demo.observations), torch.cat(demo.labels)
+            with self.timings("behaviour_cloning"):
+                for _ in range(steps):
+                    idx = torch.randint(0, obs.shape[0], (a.batch_size,), device=obs.device)
+                    td = TensorDict({("agents", "observation"): obs[idx]}, [a.batch_size])
+                    per_robot = (self.actor(td).get(("agents", "action")) - labels[idx]).pow(2).mean((0, 2))
+                    loss = per_robot.mean()
+                    optim.zero_grad(set_to_none=True)
+                    loss.backward()
+                    optim.step()
+                    if step % 100 == 0:
+                        bar.set_postfix(mse=f"{loss.item():.4f}", data=f"{obs.shape[0]:,}", refresh=False)
+                        self.logger.log_scalar("bc/mse", loss.item(), step=step)
+                    step += 1
+                    bar.update()
+        bar.close()
+        with warnings.catch_warnings():  # SoftUpdate warns that its targets were initialised before: on purpose
+            warnings.simplefilter("ignore", UserWarning)
+            self.algo.target_updater.init_()  # target actors = the cloned actors (target critics = the critics)
+        self.logger.log_scalar("bc/frames", obs.shape[0], step=0)
+        per = ", ".join(f"{v:.4f}" for v in per_robot.tolist()) if step else "-"
+        print(f"behaviour cloning of apf: {obs.shape[0]:,} labelled frames ({a.bc_dagger_rounds} DAgger rounds), "
+              f"{step} steps, final MSE {loss.item():.4f} (per robot, leader first: {per})")
+        return loss.item()
+
+    def _gradient_step(self) -> dict[str, torch.Tensor]:
+        with self.timings("buffer_sample"):
+            batch = self.buffer.sample()
+        with self.timings("update"):
+            out = self.algo.update(batch)  # writes |delta| [B, N] at PRIORITY_KEY
+        if self.cfg.algo.prioritized:
+            with self.timings("priority"):
+                self.buffer.update_tensordict_priority(batch)  # reduction max over robots (eq. 17)
+            out["priority_mean"] = batch.get(PRIORITY_KEY).amax(-1).mean()
+            out["priority_max"] = batch.get(PRIORITY_KEY).max()
+            out["weight_mean"] = batch.get(WEIGHT_KEY).mean()
+            if self.cfg.algo.beta_final is not None:  # linear annealing of beta towards beta_final
+                frac = min(1.0, self.frames / self.cfg.total_frames)
+                self.buffer.sampler.beta = self.cfg.algo.beta + frac * (self.cfg.algo.beta_final - self.cfg.algo.beta)
+        return out
+
+    # ------------------------------------------------------------------ evaluation
+    @torch.no_grad()
+    def evaluate(self) -> dict[str, float]:
+        """Deterministic actors on the fixed held-out set (``eval_episodes`` copies, ``eval_seed``)."""
+        self.eval_env.set_seed(self.cfg.eval_seed)
+        with self.timings("evaluation"), set_exploration_type(ExplorationType.DETERMINISTIC):
+            rollout = self.eval_env.rollout(self.cfg.env.max_steps, self.actor, break_when_any_done=False)
+            metrics = summarize(episode_metrics(rollout, self.cfg.env.goal_radius))
+        if self.logger is not None:
+            for k, v in metrics.items():
+                self.logger.log_scalar(f"eval/{k}", v, step=self.frames)
+        self.last_eval, self.eval_frame = metrics, self.frames
+        for hook in self.on_evaluate:  # e.g. a tuning study's pruner (it may raise to stop the run)
+            hook(self.frames, metrics)
+        return metrics
+
+    # ------------------------------------------------------------------ logging
+    def _log_train(self, finished, losses, latest, start, steps0) -> dict[str, float]:
+        log = self.logger.log_scalar
+        if finished["length"].numel():
+            latest = summarize(finished)
+            for k, v in latest.items():
+                log(f"train/{k}", v, step=self.frames)
+            log("train_by_episode/episode_reward", latest["episode_reward"], step=self.episodes)
+            log("train_by_episode/success", latest["success"], step=self.episodes)
+        if losses:
+            for k in losses[-1]:
+                values = [o[k] for o in losses if k in o]
+                log(f"loss/{k}" if k.startswith("loss") else f"algo/{k}", torch.stack(values).mean().item(),
+                    step=self.frames)
+        elapsed = max(time.perf_counter() - start, 1e-9)
+        log("perf/episodes", self.episodes, step=self.frames)
+        log("perf/frames_per_s", self._session_frames() / elapsed, step=self.frames)
+        log("perf/grad_steps_per_s", (self.algo.critic_steps - steps0) / elapsed, step=self.frames)
+        log("train/exploration_sigma", self.noise.sigma.item(), step=self.frames)
+        for k, v in self.timings.split().items():
+            log(f"perf/share_{k}", v, step=self.frames)
+        return latest
+
+    def _session_frames(self) -> int:
+        return self.frames - self._resumed_frames
+
+    def _postfix(self, latest: dict[str, float], start: float) -> dict[str, str]:
+        fps = self._session_frames() / max(time.perf_counter() - start, 1e-9)
+        out = {"fps": f"{fps:,.0f}", "steps": str(self.algo.critic_steps)}
+        if latest:
+            out.update(reward=f"{latest['episode_reward']:.0f}", success=f"{latest['success']:.2f}",
+                       CBRO=f"{latest['CBRO']:.1f}")
+        return out
+
+    # ------------------------------------------------------------------ checkpoints
+    def save_checkpoint(self) -> Path:
+        """Everything needed to resume, written atomically; plus a small policy-only file."""
+        cfg_dict = dataclasses.asdict(self.cfg)
+        state = {
+            "format": FORMAT,
+            "version": formation_rl.__version__,
+            "config": cfg_dict,
+            "algo": self.algo.state_dict(),
+            "noise": self.noise.state_dict(),
+            "counters": {"frames": self.frames, "episodes": self.episodes, "next_eval": self.next_eval,
+                         "next_checkpoint": self.next_checkpoint},
+            "rng": {**_rng_state(), "env": self.env._generator.get_state()},
+        }
+        path = self.run_dir / CHECKPOINT
+        with self.timings("checkpoint"):
+            if self.cfg.save_buffer:  # first: a crash before last.pt leaves a buffer newer than the counters, no worse
+                dump_buffer(self.buffer, path.parent / BUFFER_DIR)
+            atomic_save(state, path)
+            atomic_save(self.policy_state(), self.run_dir / POLICY)
+        return path
+
+    def policy_state(self) -> dict:
+        return {"format": FORMAT, "version": formation_rl.__version__, "algo": self.cfg.algo.name,
+                "env": dataclasses.asdict(self.cfg.env), "model": dataclasses.asdict(self.cfg.model),
+                "actor": self.actor.state_dict()}
+
+    def load_checkpoint(self, path: str | Path) -> None:
+        path = resolve_checkpoint(path, self.run_dir)
+        state = load_checkpoint_file(path)
+        saved = state["config"]
+        for name, now, then in (
+            ("algo.name", self.cfg.algo.name, saved["algo"]["name"]),
+            ("env.num_robots", self.cfg.env.num_robots, saved["env"]["num_robots"]),
+            ("env.num_obstacles", self.cfg.env.num_obstacles, saved["env"]["num_obstacles"]),
+            ("model.hidden", list(self.cfg.model.hidden), list(saved["model"]["hidden"])),
+        ):
+            if now != then:
+                raise ValueError(f"resume: {name} = {now!r} but the checkpoint {path} has {then!r}; they must match")
+        self.algo.load_state_dict(state["algo"])
+        self.noise.load_state_dict(state["noise"])
+        c = state["counters"]
+        self.frames, self.episodes = c["frames"], c["episodes"]
+        self.next_eval, self.next_checkpoint = c["next_eval"], c["next_checkpoint"]
+        self._resumed_frames = self.frames
+        self._rng = state["rng"]
+        self.env._generator.set_state(state["rng"]["env"])
+        dump = buffer_dump_to_load(path.parent / BUFFER_DIR) if self.cfg.save_buffer else None
+        if dump is not None:
+            self.buffer.loads(dump)
+        elif self.cfg.save_buffer and (path.parent / BUFFER_DIR).exists():
+            warnings.warn(f"resume: the replay buffer dump {path.parent / BUFFER_DIR} has no {_COMPLETE} marker "
+                          "(cut short, or written by an older formation_rl): the buffer starts empty and refills",
+                          stacklevel=2)
+
+    @staticmethod
+    def _seed_everything(seed: int) -> None:
+        torch.manual_seed(seed)
+        np.random.seed(seed % 2**32)
+        random.seed(seed)
+
+
+def _rng_state() -> dict:
+    return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate(),
+            "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None}
+
+
+def _set_rng_state(state: dict) -> None:
+    torch.set_rng_state(state["torch"])
+    np.random.set_state(state["numpy"])
+    random.setstate(state["python"])
+    if state.get("cuda") is not None and torch.cuda.is_available():
+        torch.cuda.set_rng_state_all(state["cuda"])
+
+
+def _check_inputs(data, frames: int) -> None:
+    """Stop on a NaN or infinite observation or reward before it reaches the replay buffer."""
+    for key in (("next", "agents", "observation"), ("next", "agents", "reward")):
+        if not torch.isfinite(data.get(key)).all():
+            raise NonFiniteError(f"training stopped at frame {frames:,}: a non-finite {key[-1]} came from the "
+                                 "environment; the last good checkpoint is kept")
+
+
+def _check_writable(run_dir: Path) -> None:
+    """Fail before any compute when the run directory cannot take checkpoints and logs."""
+    try:
+        (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)
+        probe = run_dir / "checkpoints" / ".write_test"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as err:
+        raise ValueError(f"run directory {run_dir} is not writable: {err.strerror or err}") from None
