@@ -339,3 +339,24 @@ def test_exploration_eps_replaces_actions_with_uniform_ones_during_collection_on
     cfg.algo.exploration_eps = 1.5
     with pytest.raises(ValueError, match=r"^algo.exploration_eps = 1.5 is invalid: must be in \[0, 1\]"):
         Trainer(cfg, tmp_path / "bad")
+
+
+def test_truncated_episode_keeps_its_bootstrap_in_the_replay_buffer(tmp_path):
+    """An episode ends by truncation only (SPEC §1): its last transition is stored done and truncated but not
+    terminated, so the TD target still bootstraps from the next observation (1 - terminated = 1)."""
+    from formation_rl.training.replay import to_transitions
+
+    cfg = tiny()
+    env = FormationEnv(2, config=cfg.env, seed=0)
+    rollout = env.rollout(cfg.env.max_steps, break_when_any_done=False)
+    assert rollout["next", "truncated"][:, -1].all() and not rollout["next", "terminated"].any()
+    stored = to_transitions(rollout)
+    last = stored.reshape(2, -1)[:, -1]
+    assert last["next", "agents", "done"].all() and not last["next", "agents", "terminated"].any()
+    algo = Trainer(cfg, tmp_path).algo
+    batch = stored[:8].clone()
+    batch["next", "agents", "reward"].zero_()
+    with torch.no_grad():
+        target = algo.loss.value_estimator.value_estimate(
+            batch.set(("next", "agents", "state_action_value"), torch.ones_like(batch["next", "agents", "reward"])))
+    torch.testing.assert_close(target, torch.full_like(target, cfg.algo.gamma))  # r + gamma * (1 - terminated) * 1

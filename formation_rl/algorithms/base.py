@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import torch
@@ -39,7 +40,8 @@ class Algorithm:
 
     def __init__(self, cfg: AlgoConfig):
         self.cfg = cfg
-        self.loss.set_keys(**{k: v for k, v in KEYS.items() if k in self.loss._AcceptedKeys.__dataclass_fields__})
+        accepted = {f.name for f in dataclasses.fields(self.loss.tensor_keys)}
+        self.loss.set_keys(**{k: v for k, v in KEYS.items() if k in accepted})
         self.loss.make_value_estimator(ValueEstimators.TD0, gamma=cfg.gamma)
         self.actor_params = [p for p in self.loss.actor_network_params.values(True, True) if p.requires_grad]
         critic = getattr(self.loss, self.critic_params_name)

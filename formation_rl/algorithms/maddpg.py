@@ -22,4 +22,4 @@ class MADDPG(Algorithm):
         return self.loss.loss_value(batch)  # DDPGLoss's name for TD3Loss's value_loss
 
     def _actor_critic(self):
-        return self.loss.value_network, self.loss._cached_detached_value_params
+        return self.loss.value_network, self.loss.value_network_params.detach()  # public: no private cache

@@ -34,4 +34,4 @@ class MATD3(Algorithm):
         super().__init__(cfg)
 
     def _actor_critic(self):
-        return self.loss.qvalue_network, self.loss._cached_detach_qvalue_network_params[0]  # Q1 (TD3)
+        return self.loss.qvalue_network, self.loss.qvalue_network_params[0].detach()  # Q1 (TD3); public attributes only

@@ -196,6 +196,13 @@ class FormationEnv(EnvBase):
         tensordict.set(("agents", "action"), action)
         return tensordict
 
+    def rng_state(self) -> torch.Tensor:
+        """The scenario generator's state (checkpoints save it, so a resumed run samples the same scenarios)."""
+        return self._generator.get_state()
+
+    def set_rng_state(self, state: torch.Tensor) -> None:
+        self._generator.set_state(state)
+
     def _set_seed(self, seed: int | None) -> None:
         if seed is not None:
             self._generator.manual_seed(seed)

@@ -16,6 +16,8 @@ from tensordict.nn import TensorDictModule
 from torch import nn
 from torchrl.modules import ValueOperator
 
+from formation_rl.compat import is_batched_tensor
+
 ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "leaky_relu": nn.LeakyReLU}
 
 
@@ -263,7 +265,7 @@ def _may_need_grad(t: torch.Tensor) -> bool:
     tensor reports ``requires_grad=False`` whatever lies beneath, so it counts as yes."""
     if not torch.is_grad_enabled():
         return False
-    return t.requires_grad or torch._C._functorch.is_batchedtensor(t)
+    return t.requires_grad or is_batched_tensor(t)
 
 
 class ResidualActor(nn.Module):

@@ -366,7 +366,7 @@ class Trainer:
             "noise": self.noise.state_dict(),
             "counters": {"frames": self.frames, "episodes": self.episodes, "next_eval": self.next_eval,
                          "next_checkpoint": self.next_checkpoint},
-            "rng": {**_rng_state(), "env": self.env._generator.get_state()},
+            "rng": {**_rng_state(), "env": self.env.rng_state()},
         }
         path = self.run_dir / CHECKPOINT
         with self.timings("checkpoint"):
@@ -400,7 +400,7 @@ class Trainer:
         self.next_eval, self.next_checkpoint = c["next_eval"], c["next_checkpoint"]
         self._resumed_frames = self.frames
         self._rng = state["rng"]
-        self.env._generator.set_state(state["rng"]["env"])
+        self.env.set_rng_state(state["rng"]["env"])
         dump = buffer_dump_to_load(path.parent / BUFFER_DIR) if self.cfg.save_buffer else None
         if dump is not None:
             self.buffer.loads(dump)
