@@ -1,6 +1,5 @@
 """The training job: a tiny run end to end, TensorBoard tags, checkpoints, resume, policy loading, CLI."""
 
-import copy
 import json
 import os
 import subprocess
@@ -225,56 +224,6 @@ def test_n_step_transitions_carry_the_steps_they_look_ahead(tmp_path):
     assert (steps.view(-1, 8, 20, 3)[:, :, :18] == 3).all()
 
 
-def test_warmup_by_the_classical_controller_then_the_actors(tmp_path):
-    """algo.warmup_policy=apf: the warm-up frames are the controller's actions, the rest the actors'."""
-    cfg = tiny("matd3", frames=640)
-    cfg.algo.warmup_policy, cfg.algo.exploration_sigma, cfg.algo.exploration_sigma_end = "apf", 0.0, 0.0
-    cfg.algo.buffer_size = 640
-    trainer = Trainer(cfg, tmp_path)
-    trainer.train()
-    stored = trainer.buffer.storage[:640]  # in insertion order: [B * T] per collector batch of 160 frames
-    obs, act = stored["agents", "observation"], stored["agents", "action"]
-    apf = APFController(cfg.env)(obs)
-    warm = slice(0, 320)  # the two batches that bring the buffer to warmup_frames
-    assert torch.allclose(act[warm], apf[warm], atol=1e-5)  # float32 rounding differs with the batch shape
-    # the actors act afterwards, and they act otherwise than the controller
-    assert not torch.allclose(act[320:], apf[320:], atol=1e-2)
-
-
-def test_actor_init_apf_clones_the_classical_controller(tmp_path):
-    """algo.actor_init=apf: the actors start near the controller's actions, the targets equal them, and
-    the demonstrations (and the DAgger rounds' frames) are in the buffer before the first collected frame."""
-    cfg = tiny("matd3", frames=160)
-    cfg.algo.actor_init, cfg.algo.bc_frames, cfg.algo.bc_steps, cfg.algo.bc_dagger_rounds = "apf", 480, 1500, 1
-    cfg.algo.batch_size, cfg.algo.warmup_frames, cfg.algo.critic_warmup_steps = 256, 0, 1000
-    cfg.algo.lr_actor = 3e-3
-    trainer = Trainer(cfg, tmp_path)
-    untrained = copy.deepcopy(trainer.actor)
-    trainer.train()
-    demos = trainer.buffer.storage[:160]  # the first, noise-free round: the controller's own actions
-    assert torch.allclose(demos["agents", "action"], APFController(cfg.env)(demos["agents", "observation"]),
-                          atol=1e-5)  # float32 rounding differs with the batch shape
-    labelled = trainer.buffer.storage[:800]  # every frame of the cloning, labelled by the controller
-    labels = APFController(cfg.env)(labelled["agents", "observation"])
-
-    def gap(actor):
-        with torch.no_grad():
-            return (actor(labelled.clone())["agents", "action"] - labels).pow(2).mean((0, 2))  # per robot
-
-    cloned, before = gap(trainer.actor), gap(untrained)
-    assert cloned[0] < 0.3 * before[0]  # the leader's law (brake towards the goal) is cloned closely,
-    assert (cloned[1:] < 0.8 * before[1:]).all()  # the followers' switching, saturated one only roughly
-    # 3 rounds of 8 copies x 20 steps by the controller, 2 driven by the clone (DAgger), then the run's frames
-    assert len(trainer.buffer) == 3 * 8 * 20 + 2 * 8 * 20 + 160
-    dagger = trainer.buffer.storage[480:800]
-    assert not torch.allclose(dagger["agents", "action"], APFController(cfg.env)(dagger["agents", "observation"]),
-                              atol=1e-2)  # the clone drove those
-    actor = trainer.algo.loss.actor_network_params.detach()
-    assert (trainer.algo.loss.target_actor_network_params == actor).all()  # targets copied, actors held
-    tags = scalars(tmp_path)
-    assert "bc/mse" in tags and len(tags["eval/success"]) == 3  # untrained, cloned, end
-
-
 def test_residual_actors_start_as_the_controller_learn_corrections_and_reload(tmp_path):
     """model.residual=apf: before any update the actors act as the classical controller (targets too);
     training moves only the correction, within residual_scale; policy.pt rebuilds the same actors."""
@@ -295,12 +244,9 @@ def test_residual_actors_start_as_the_controller_learn_corrections_and_reload(tm
     assert torch.allclose(policy(obs["agents", "observation"]), trained, atol=1e-6)
 
 
-def test_residual_rejects_cloning_and_unknown_bases():
+def test_residual_rejects_unknown_bases():
     cfg = tiny()
-    cfg.model.residual, cfg.algo.actor_init = "apf", "apf"
-    with pytest.raises(ValueError, match="algo.actor_init = 'apf' is invalid: must be random with model.residual=apf"):
-        Trainer(cfg, "/tmp/never_written_residual")
-    cfg.model.residual, cfg.algo.actor_init = "pid", "random"
+    cfg.model.residual = "pid"
     with pytest.raises(ValueError, match="model.residual = 'pid' is invalid: must be none or apf"):
         Trainer(cfg, "/tmp/never_written_residual")
     assert not Path("/tmp/never_written_residual").exists()
@@ -317,7 +263,7 @@ def test_fast_budget_composes_to_the_residual_recipe():
     with initialize_config_dir(str(Path(__file__).resolve().parents[1] / "formation_rl" / "conf"), version_base=None):
         cfg = to_train_config(compose("config", overrides=["budget=fast"]))
     validate(cfg)
-    assert cfg.model.residual == "apf" and cfg.algo.actor_init == "random" and cfg.algo.bc_weight > 0
+    assert cfg.model.residual == "apf" and cfg.algo.bc_weight > 0
     assert cfg.env.relative_positions and cfg.total_frames == 60_000
 
 

@@ -16,7 +16,6 @@ class AlgoConfig:
     prioritized: bool = True  # PER (section 3.3)
     alpha: float = 0.6  # priority exponent (paper)
     beta: float = 0.5  # importance-sampling exponent (paper)
-    beta_final: float | None = None  # anneal beta linearly to this by the end of training (choice; None: constant)
     priority_eps: float = 1e-6  # p = (max |delta| + eps)^alpha (choice)
     lr_actor: float = 1e-3  # (paper)
     lr_critic: float = 1e-3  # (paper)
@@ -30,17 +29,6 @@ class AlgoConfig:
     action_reg: float = 1e-3  # actor loss += action_reg * mean(pre-tanh^2), against tanh saturation (choice:
     #                           the MADDPG reference implementation's value; 0 turns it off)
     warmup_frames: int = 10_000  # frames collected before the first update (choice)
-    warmup_policy: str = "random"  # who acts in them: random (uniform actions) | apf (the classical controller
-    #                                with the exploration noise: demonstrations in the buffer) (choice)
-    actor_init: str = "random"  # random (PyTorch's init) | apf: behaviour-clone the classical controller into the
-    #                             actors before training, its demonstrations also put in the buffer (choice)
-    bc_frames: int = 150_000  # actor_init=apf: frames of demonstrations (every other round with bc_noise on the
-    #                           executed action, labelled with the controller's own action)
-    bc_steps: int = 3_000  # actor_init=apf: gradient steps of the cloning fit (MSE, batch_size, bc_lr)
-    bc_noise: float = 0.2  # actor_init=apf: Gaussian noise on the executed action in the noisy rounds
-    bc_dagger_rounds: int = 0  # actor_init=apf: DAgger rounds after the first fit (the clone drives bc_frames / 2
-    #                            frames, the controller labels them, the fit goes on for bc_steps / 2 steps)
-    bc_lr: float = 1e-3  # actor_init=apf: Adam learning rate of the cloning fit
     bc_weight: float = 0.0  # > 0: the actor loss becomes -Q / mean|Q| + bc_weight * mean((a - apf(o))^2) on every
     #                         batch (TD3+BC's form, the classical controller as the anchor); 0: the paper's -Q
     critic_warmup_steps: int = 0  # first gradient steps that train the critics only (targets still follow):

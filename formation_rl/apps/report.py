@@ -105,7 +105,7 @@ def load_run(path: Path) -> Run:
     run = Run(path, config)
     elapsed = 0.0  # training seconds before this events file (a resumed run writes one file per session)
     # one evaluation per (frames, events file, repeat): a run may evaluate twice at one frame count
-    # (actor_init=apf: the untrained actors, then the clone), a resumed session may redo one
+    # (e.g. a run that evaluated twice at frame 0), a resumed session may redo one
     evals: dict[tuple[float, int, int], tuple[float, dict[str, float]]] = {}
     for file_index, events in enumerate(sorted((path / "tb").glob("events*"))):
         ea = EventAccumulator(str(events), size_guidance={"scalars": 0})

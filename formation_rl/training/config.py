@@ -66,7 +66,6 @@ def validate(cfg: TrainConfig) -> None:
         check(getattr(a, name) > 0, f"algo.{name}", getattr(a, name), "> 0")
     for name in ("gamma", "tau", "alpha", "beta"):
         check(0 <= getattr(a, name) <= 1, f"algo.{name}", getattr(a, name), "in [0, 1]")
-    check(a.beta_final is None or 0 <= a.beta_final <= 1, "algo.beta_final", a.beta_final, "null or in [0, 1]")
     check(a.priority_eps > 0, "algo.priority_eps", a.priority_eps, "> 0")
     check(a.policy_noise >= 0 and a.noise_clip >= 0, "algo.policy_noise", a.policy_noise, ">= 0 (noise_clip too)")
     check(a.policy_delay >= 1, "algo.policy_delay", a.policy_delay, "an integer >= 1")
@@ -76,12 +75,7 @@ def validate(cfg: TrainConfig) -> None:
     check(a.n_steps >= 1, "algo.n_steps", a.n_steps, "an integer >= 1")
     check(a.action_reg >= 0, "algo.action_reg", a.action_reg, ">= 0")
     check(a.warmup_frames >= 0, "algo.warmup_frames", a.warmup_frames, ">= 0")
-    check(a.warmup_policy in ("random", "apf"), "algo.warmup_policy", a.warmup_policy, "random or apf")
-    check(a.actor_init in ("random", "apf"), "algo.actor_init", a.actor_init, "random or apf")
-    for name in ("bc_frames", "bc_steps", "bc_dagger_rounds", "critic_warmup_steps"):
-        check(getattr(a, name) >= 0, f"algo.{name}", getattr(a, name), "an integer >= 0")
-    check(a.bc_noise >= 0, "algo.bc_noise", a.bc_noise, ">= 0")
-    check(a.bc_lr > 0, "algo.bc_lr", a.bc_lr, "> 0")
+    check(a.critic_warmup_steps >= 0, "algo.critic_warmup_steps", a.critic_warmup_steps, "an integer >= 0")
     check(a.bc_weight >= 0, "algo.bc_weight", a.bc_weight, ">= 0")
     check(a.exploration_sigma >= a.exploration_sigma_end >= 0, "algo.exploration_sigma", a.exploration_sigma,
           f">= exploration_sigma_end ({a.exploration_sigma_end}) >= 0")
@@ -91,8 +85,6 @@ def validate(cfg: TrainConfig) -> None:
           "a non-empty list of positive layer sizes")
     check(cfg.model.residual in ("none", "apf"), "model.residual", cfg.model.residual, "none or apf")
     check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
-    check(cfg.model.residual == "none" or a.actor_init == "random", "algo.actor_init", a.actor_init,
-          "random with model.residual=apf (the residual actors start as the controller already)")
     check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
     check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
     check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")

@@ -15,8 +15,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
-from tensordict import TensorDict, TensorDictBase
-from tensordict.nn import TensorDictModuleBase, TensorDictSequential
+from tensordict.nn import TensorDictSequential
 from torchrl.collectors import Collector
 from torchrl.data.postprocs import MultiStep
 from torchrl.envs.utils import ExplorationType, set_exploration_type
@@ -61,41 +60,6 @@ def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
     return out
 
 
-class _Switch(TensorDictModuleBase):
-    """The collection policy: ``first`` while ``self.first`` is set, then ``then`` (same keys)."""
-
-    def __init__(self, first: TensorDictModuleBase, then: TensorDictModuleBase, active: bool):
-        super().__init__()
-        self.in_keys, self.out_keys = then.in_keys, then.out_keys
-        self.first_policy, self.then_policy, self.first = first, then, active
-
-    def forward(self, td: TensorDictBase) -> TensorDictBase:
-        return (self.first_policy if self.first else self.then_policy)(td)
-
-
-class _Demonstrator(TensorDictModuleBase):
-    """Acts with ``teacher`` plus ``noise`` (Gaussian, clipped to the box), or with ``actor`` when set, and
-    keeps every observation with the teacher's own, noise-free action: the behaviour-cloning (and DAgger)
-    data of ``algo.actor_init=apf``."""
-
-    def __init__(self, teacher: TensorDictModuleBase):
-        super().__init__()
-        self.in_keys, self.out_keys = teacher.in_keys, teacher.out_keys
-        self.teacher, self.noise, self.actor = teacher, 0.0, None
-        self.observations: list[torch.Tensor] = []  # [copies, N, D] per step
-        self.labels: list[torch.Tensor] = []  # [copies, N, 2] per step
-
-    def forward(self, td: TensorDictBase) -> TensorDictBase:
-        clean = self.teacher(td).get(("agents", "action")).clone()
-        self.observations.append(td.get(("agents", "observation")).clone())
-        self.labels.append(clean)
-        if self.actor is not None:  # another policy acts (DAgger); the teacher only labels
-            self.actor(td)
-        elif self.noise > 0:
-            td.set(("agents", "action"), (clean + self.noise * torch.randn_like(clean)).clamp(-1.0, 1.0))
-        return td
-
-
 class Trainer:
     def __init__(self, cfg: TrainConfig | DictConfig | dict, run_dir: str | Path):
         cfg = to_train_config(cfg)
@@ -135,11 +99,6 @@ class Trainer:
             self.explore.append(EGreedyModule(
                 self.env.full_action_spec_unbatched[("agents", "action")].to(dev), eps_init=a.exploration_eps,
                 eps_end=a.exploration_eps, action_key=("agents", "action"), device=dev))
-        self.warmup = None  # algo.warmup_policy=apf: the classical controller (+ the same noise) collects warm-up
-        if a.warmup_policy == "apf":
-            from formation_rl.models.controller import apf_policy
-
-            self.warmup = TensorDictSequential(apf_policy(cfg.env).to(dev), self.noise)
         self.timings = Timings()  # wall time per section of the loop (train.log, perf/share_*)
         self.timings.watch_policy(self.explore)
         self.buffer = make_replay_buffer(a, dev)
@@ -169,20 +128,16 @@ class Trainer:
         learn_from = max(a.batch_size, a.warmup_frames)  # no update before the buffer holds this much
         batches = -(-max(remaining, 1) // per_batch)  # whole collector batches (the last one may overshoot)
         warmup_batches = -(-max(0, a.warmup_frames - self.frames) // per_batch)
-        policy = self.explore if self.warmup is None else _Switch(self.warmup, self.explore, warmup_batches > 0)
         collector = Collector(
-            self.env, policy, frames_per_batch=per_batch, total_frames=batches * per_batch,
-            init_random_frames=warmup_batches * per_batch if self.warmup is None else 0, device=cfg.device,
+            self.env, self.explore, frames_per_batch=per_batch, total_frames=batches * per_batch,
+            init_random_frames=warmup_batches * per_batch, device=cfg.device,
             auto_register_policy_transforms=False,
         )
         self.timings.add("setup", time.perf_counter() - setup)
         bar = tqdm(total=cfg.total_frames, initial=self.frames, unit="frame", unit_scale=True,
                    disable=not cfg.progress, desc=a.name, dynamic_ncols=True)
         if self.frames == 0:
-            if a.actor_init == "apf":
-                self.evaluate()  # the untrained actors, then the cloned ones (both at frame 0)
-                self.clone_classical()
-            self.evaluate()  # the untrained (or cloned) policy: the baseline every curve starts from
+            self.evaluate()  # the untrained policy: the baseline every curve starts from
         credit, start, steps0 = 0, time.perf_counter(), self.algo.critic_steps
         latest: dict[str, float] = {}
         timings, waited_from, policy_seconds = self.timings, time.perf_counter(), self.timings.seconds["policy"]
@@ -193,8 +148,6 @@ class Trainer:
                 if self.frames >= cfg.total_frames:
                     break
                 self.frames += data.numel()
-                if isinstance(policy, _Switch):
-                    policy.first = self.frames < a.warmup_frames  # the controller's warm-up is over
                 with timings("metrics"):
                     _check_inputs(data, self.frames)
                     finished = self.tracker.update(data)
@@ -233,61 +186,6 @@ class Trainer:
         self.logger.experiment.flush()
         return final
 
-    def clone_classical(self) -> float:
-        """``algo.actor_init=apf``: behaviour cloning of the classical controller into the actors.
-
-        The controller drives the training env copies for ``bc_frames`` frames (every other round with
-        ``bc_noise`` on the executed action, so that the actors also see how it recovers from being
-        pushed off its path); each actor is fitted to its robot's controller action on its own
-        observation (MSE, ``bc_steps`` steps of ``batch_size``, Adam at ``bc_lr``). Then
-        ``bc_dagger_rounds`` rounds of DAgger: the cloned actors drive for ``bc_frames / 2`` frames,
-        every observation they reach is labelled with the controller's action and added to the data,
-        and the fit goes on for ``bc_steps / 2`` steps. The target actors are copied from the result.
-        Every frame driven here (executed actions, rewards) also goes in the replay buffer.
-        Returns the final fit loss.
-        """
-        from formation_rl.models.controller import apf_policy
-
-        cfg, a = self.cfg, self.cfg.algo
-        demo = _Demonstrator(apf_policy(cfg.env).to(self.env.device))
-        per_round = cfg.num_envs * cfg.env.max_steps
-        optim = torch.optim.Adam(self.actor.parameters(), lr=a.bc_lr)
-        bar = tqdm(total=a.bc_steps + a.bc_dagger_rounds * (a.bc_steps // 2), desc="behaviour cloning (apf)",
-                   unit="step", disable=not cfg.progress, dynamic_ncols=True)
-        loss, per_robot, step = torch.zeros(()), torch.zeros(()), 0
-        for phase in range(1 + a.bc_dagger_rounds):
-            frames, steps = (a.bc_frames, a.bc_steps) if phase == 0 else (a.bc_frames // 2, a.bc_steps // 2)
-            demo.actor = None if phase == 0 else self.actor  # DAgger: the clone drives, the controller labels
-            with self.timings("behaviour_cloning"), torch.no_grad():
-                for r in range(max(1, -(-frames // per_round))):
-                    demo.noise = a.bc_noise if phase == 0 and r % 2 == 1 else 0.0
-                    rollout = self.env.rollout(cfg.env.max_steps, demo, break_when_any_done=False)
-                    self.buffer.extend(to_transitions(rollout))
-            obs, labels = torch.cat(demo.observations), torch.cat(demo.labels)
-            with self.timings("behaviour_cloning"):
-                for _ in range(steps):
-                    idx = torch.randint(0, obs.shape[0], (a.batch_size,), device=obs.device)
-                    td = TensorDict({("agents", "observation"): obs[idx]}, [a.batch_size])
-                    per_robot = (self.actor(td).get(("agents", "action")) - labels[idx]).pow(2).mean((0, 2))
-                    loss = per_robot.mean()
-                    optim.zero_grad(set_to_none=True)
-                    loss.backward()
-                    optim.step()
-                    if step % 100 == 0:
-                        bar.set_postfix(mse=f"{loss.item():.4f}", data=f"{obs.shape[0]:,}", refresh=False)
-                        self.logger.log_scalar("bc/mse", loss.item(), step=step)
-                    step += 1
-                    bar.update()
-        bar.close()
-        with warnings.catch_warnings():  # SoftUpdate warns that its targets were initialised before: on purpose
-            warnings.simplefilter("ignore", UserWarning)
-            self.algo.target_updater.init_()  # target actors = the cloned actors (target critics = the critics)
-        self.logger.log_scalar("bc/frames", obs.shape[0], step=0)
-        per = ", ".join(f"{v:.4f}" for v in per_robot.tolist()) if step else "-"
-        print(f"behaviour cloning of apf: {obs.shape[0]:,} labelled frames ({a.bc_dagger_rounds} DAgger rounds), "
-              f"{step} steps, final MSE {loss.item():.4f} (per robot, leader first: {per})")
-        return loss.item()
-
     def _gradient_step(self) -> dict[str, torch.Tensor]:
         with self.timings("buffer_sample"):
             batch = self.buffer.sample()
@@ -299,9 +197,6 @@ class Trainer:
             out["priority_mean"] = batch.get(PRIORITY_KEY).amax(-1).mean()
             out["priority_max"] = batch.get(PRIORITY_KEY).max()
             out["weight_mean"] = batch.get(WEIGHT_KEY).mean()
-            if self.cfg.algo.beta_final is not None:  # linear annealing of beta towards beta_final
-                frac = min(1.0, self.frames / self.cfg.total_frames)
-                self.buffer.sampler.beta = self.cfg.algo.beta + frac * (self.cfg.algo.beta_final - self.cfg.algo.beta)
         return out
 
     # ------------------------------------------------------------------ evaluation
