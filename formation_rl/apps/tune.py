@@ -55,6 +55,7 @@ class TuneConfig:
     space: dict[str, Any] = field(default_factory=dict)  # key -> {type, low, high, log} or {type, choices}
     slurm: SlurmConfig = field(default_factory=SlurmConfig)
     out: str = "outputs/tune"
+    prune_after: int = 50_000  # frames before a trial may be pruned (median of earlier trials at the same frames)
 
 
 ConfigStore.instance().store(name="tune_schema", node=TuneConfig)
@@ -172,7 +173,7 @@ def load_study(cfg: TuneConfig, worker: int = 0):
     return optuna.create_study(
         study_name=cfg.study, storage=storage, direction="maximize", load_if_exists=True,
         sampler=optuna.samplers.TPESampler(seed=cfg.seed + worker, n_startup_trials=8, multivariate=True),
-        pruner=optuna.pruners.MedianPruner(n_startup_trials=6, n_warmup_steps=1),
+        pruner=optuna.pruners.MedianPruner(n_startup_trials=6, n_warmup_steps=cfg.prune_after),
     )
 
 
