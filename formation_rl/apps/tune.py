@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import signal
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -235,18 +236,31 @@ def main(dcfg: DictConfig) -> None:
     from formation_rl.apps.tune import run_worker as worker  # by reference: this file may be running as __main__
 
     jobs = [executor.submit(worker, plain, k) for k in range(cfg.workers)]
-    for job in jobs:
-        try:
-            job.result()
-        except Exception as err:  # noqa: BLE001  (a worker's failure is reported, the others keep their trials)
-            print(f"worker {job.job_id} failed: {str(err).splitlines()[-1] if str(err) else type(err).__name__} "
-                  f"(log: {folder})", file=sys.stderr)
-    del jobs, job  # submitit's jobs clean up in __del__, which fails at interpreter exit
+    signal.signal(signal.SIGTERM, _interrupt)  # a kill of this command stops its local workers too
+    try:
+        for job in jobs:
+            try:
+                job.result()
+            except Exception as err:  # noqa: BLE001  (a worker's failure is reported, the others keep their trials)
+                print(f"worker {job.job_id} failed: {str(err).splitlines()[-1] if str(err) else type(err).__name__} "
+                      f"(log: {folder})", file=sys.stderr)
+    except KeyboardInterrupt:
+        if cfg.launcher == "local":  # SLURM jobs run on without this process, as cluster jobs do
+            for job in jobs:
+                job.cancel(check=False)
+        print(f"stopped: the study in {storage_url(cfg)} keeps its finished trials; run the same command to "
+              "resume", file=sys.stderr)
+        sys.exit(130)
+    del jobs  # submitit's jobs clean up in __del__, which fails at interpreter exit
     text = summary(load_study(cfg))
     path = Path(cfg.out) / cfg.study / "summary.md"
     path.write_text(text)
     print(text)
     print(f"summary: {path}")
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 def _first(spec: dict) -> Any:

@@ -56,3 +56,34 @@ def test_bad_input_is_one_line_before_any_trial(tmp_path):
     bad = _tune(f"out={tmp_path}", 'base=["algo.tau=2"]')
     assert bad.returncode == 2 and "algo.tau = 2.0 is invalid" in bad.stderr
     assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+def test_stopping_the_command_stops_its_local_workers(tmp_path):
+    """SIGTERM (or Ctrl-C) on `make tune` cancels its local submitit workers: none keeps training alone."""
+    import os
+    import signal
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "formation_rl.apps.tune", f"out={tmp_path}", "trials=50",
+                             "workers=1", TINY.replace("total_frames=1600", "total_frames=400000")], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    pid_file = None
+    for _ in range(120):  # until the worker has started (its submitit files appear)
+        time.sleep(0.5)
+        started = list((tmp_path / "recipe" / "workers").glob("*_0_log.out")) if (tmp_path / "recipe").exists() else []
+        if started:
+            pid_file = started[0]
+            break
+    assert pid_file is not None, proc.communicate(timeout=60)
+    worker_id = int(pid_file.name.split("_")[0])
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "run the same command to resume" in err
+    for _ in range(40):
+        try:
+            os.kill(worker_id, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.25)
+    else:
+        raise AssertionError(f"worker {worker_id} still running after the command stopped")
