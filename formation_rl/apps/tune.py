@@ -62,6 +62,9 @@ class TuneConfig:
 ConfigStore.instance().store(name="tune_schema", node=TuneConfig)
 
 
+SCORE = "success + 0.1 at_goal - 0.01 (min(UDBLT, 10) + min(RFSE, 10))"  # as score() computes it
+
+
 def score(metrics: dict[str, float]) -> float:
     """The study's objective (maximised), a weighted score on validation scenarios:
     ``success + 0.1 at_goal - 0.01 (min(UDBLT, 10) + min(RFSE, 10))`` (fractions in [0, 1], distances in m).
@@ -187,7 +190,7 @@ def summary(study, top: int = 10) -> str:
     keys = sorted({k for t in done for k in t.params})
     lines = [f"# Study `{study.study_name}`", "",
              "Trials: " + ", ".join(f"{v} {k}" for k, v in counts.items() if v), "",
-             "score = success + 0.1 at_goal - 0.01 (min(UDBLT, 10) + min(RFSE, 10)), on validation scenarios", "",
+             f"score = {SCORE}, on validation scenarios", "",
              "| # | score | success | at_goal | UDBLT | RFSE | CBRO | CBRS | " + " | ".join(keys) + " |",
              "|" + "---|" * (8 + len(keys))]
     for t in done[:top]:

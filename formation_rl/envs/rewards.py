@@ -40,6 +40,18 @@ class Geometry:
         )
 
 
+def _pairwise_distances(pos: torch.Tensor) -> torch.Tensor:
+    """Centre distances ``[N, N, B]`` of batch-last positions ``[2, N, B]``."""
+    px, py = pos[0], pos[1]
+    dx, dy = px[:, None] - px[None], py[:, None] - py[None]
+    return torch.addcmul(dx * dx, dy, dy).sqrt_()
+
+
+def _norm(v: torch.Tensor) -> torch.Tensor:
+    """Length ``[B]`` of batch-last vectors ``[2, B]``."""
+    return torch.addcmul(v[0] * v[0], v[1], v[1]).sqrt_()
+
+
 def step_quantities(
     pos: torch.Tensor,  # [2, N, B]
     goal: torch.Tensor,  # [2, B]
@@ -53,8 +65,7 @@ def step_quantities(
     r, rw = cfg.robot_radius, cfg.reward
     n, b = pos.shape[1:]
     px, py = pos[0], pos[1]  # [N, B]
-    dx, dy = px[:, None] - px[None], py[:, None] - py[None]
-    dist = torch.addcmul(dx * dx, dy, dy).sqrt_()  # [N, N, B]
+    dist = _pairwise_distances(pos)  # [N, N, B]
     # min over floats, then compare: far cheaper than any() over a boolean tensor
     nearest_robot = (dist + geom.no_self).amin(1)  # [N, B]
     robot_hit = nearest_robot < 2 * r + cfg.robot_collision_margin  # [N, B]
@@ -69,7 +80,7 @@ def step_quantities(
     lx, ly = px[0], py[0]
     in_area = (lx > x0) & (lx < x1) & (ly > y0) & (ly < y1)  # [B], leader strictly inside
     to_goal = pos[:, 0] - goal  # [2, B]
-    goal_dist = torch.addcmul(to_goal[0] * to_goal[0], to_goal[1], to_goal[1]).sqrt_()  # [B]
+    goal_dist = _norm(to_goal)  # [B]
 
     # |d_ij - d*_ij| under each formation (F of them), reduced per follower and over pairs
     err = (dist[None] - geom.dstar).abs_()  # [F, N, N, B]
@@ -79,26 +90,22 @@ def step_quantities(
     formation_error = (err * geom.pairs).sum((1, 2))  # [F, B]
     progress = prev_pos is not None and (rw.leader_progress != 0 or rw.follower_progress != 0)
     if progress:  # the same errors one step earlier, under the formations of now
-        qx, qy = prev_pos[0], prev_pos[1]
-        ddx, ddy = qx[:, None] - qx[None], qy[:, None] - qy[None]
-        prev_dist = torch.addcmul(ddx * ddx, ddy, ddy).sqrt_()
-        prev_follower_err = ((prev_dist[None] - geom.dstar).abs_() * geom.own).sum(2)  # [F, N, B]
-        prev_to_goal = prev_pos[:, 0] - goal
-        prev_goal_dist = torch.addcmul(prev_to_goal[0] * prev_to_goal[0], prev_to_goal[1], prev_to_goal[1]).sqrt_()
+        prev_follower_err = ((_pairwise_distances(prev_pos)[None] - geom.dstar).abs_() * geom.own).sum(2)
+        prev_goal_dist = _norm(prev_pos[:, 0] - goal)
     if err.shape[0] == 2:  # hybrid: the area formation is active while the leader is inside
         area = in_area
-        if progress:
-            prev_follower_err = torch.where(area, prev_follower_err[1], prev_follower_err[0])
-        follower_err = torch.where(area, follower_err[1], follower_err[0])
-        worst = torch.where(area, worst[1], worst[0])
-        formation_error = torch.where(area, formation_error[1], formation_error[0])
-        bonus = torch.where(area, rw.formation_area, rw.formation_open)  # R3 or R2, [B]
+
+        def active(per_formation: torch.Tensor) -> torch.Tensor:
+            return torch.where(area, per_formation[1], per_formation[0])
     else:
         area = in_area if rw.variant == "hybrid" else torch.zeros_like(in_area)
-        follower_err, worst, formation_error = follower_err[0], worst[0], formation_error[0]
-        if progress:
-            prev_follower_err = prev_follower_err[0]
-        bonus = torch.where(area, rw.formation_area, rw.formation_open)
+
+        def active(per_formation: torch.Tensor) -> torch.Tensor:
+            return per_formation[0]
+    follower_err, worst, formation_error = active(follower_err), active(worst), active(formation_error)
+    if progress:
+        prev_follower_err = active(prev_follower_err)
+    bonus = torch.where(area, rw.formation_area, rw.formation_open)  # R3 or R2, [B]
 
     # sparse replaces guided: R1 leader at goal, R2/R3 follower holds formation, R4, R5 collisions
     positive = worst <= rw.tolerance  # [N, B]

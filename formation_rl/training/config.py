@@ -95,9 +95,11 @@ def validate(cfg: TrainConfig) -> None:
     from formation_rl.utils import check_device  # the check make eval, render and demo make too
 
     check_device(cfg.device)
-    check(cfg.precision in ("fp32", "bf16"), "precision", cfg.precision, "fp32 or bf16")
+    from formation_rl.models import bf16_supported
+    from formation_rl.models.networks import PRECISIONS
+
+    check(cfg.precision in PRECISIONS, "precision", cfg.precision, " or ".join(PRECISIONS))
     if cfg.precision == "bf16":
-        from formation_rl.models import bf16_supported
 
         check(bf16_supported(cfg.device), "precision", cfg.precision,
               f"fp32 on this {cfg.device}: it has no native bf16 (CPU: AVX512-BF16 or AMX; GPU: bf16 support), "
