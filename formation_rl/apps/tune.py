@@ -218,6 +218,8 @@ def main(dcfg: DictConfig) -> None:
     for name in ("trials", "workers", "threads"):
         if getattr(cfg, name) < 1:
             raise ValueError(f"{name} = {getattr(cfg, name)!r} is invalid: must be an integer >= 1")
+    if cfg.prune_after < 0:
+        raise ValueError(f"prune_after = {cfg.prune_after!r} is invalid: must be an integer >= 0 (frames)")
     check_space(cfg.space)
     from formation_rl.training.config import validate
 

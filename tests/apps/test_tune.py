@@ -53,6 +53,9 @@ def test_study_runs_two_workers_resumes_and_writes_a_summary(tmp_path):
 def test_bad_input_is_one_line_before_any_trial(tmp_path):
     bad = _tune(f"out={tmp_path}", "launcher=cloud")
     assert bad.returncode == 2 and bad.stderr.strip().endswith("launcher = 'cloud' is invalid: must be local or slurm")
+    bad = _tune(f"out={tmp_path}", "prune_after=-1")
+    assert bad.returncode == 2 and bad.stderr.strip().endswith("prune_after = -1 is invalid: must be an integer >= 0 "
+                                                               "(frames)")
     bad = _tune(f"out={tmp_path}", 'base=["algo.tau=2"]')
     assert bad.returncode == 2 and "algo.tau = 2.0 is invalid" in bad.stderr
     assert list(tmp_path.iterdir()) == []  # nothing written
