@@ -23,7 +23,7 @@ def test_pretrained_policy_loads_and_keeps_its_success_on_50_held_out_episodes()
     assert per["CBRO"].mean() < 2.37  # the paper's PER-MATD3 row, which it beats on obstacle collisions
 
 
-FAST_CLAIMED_SUCCESS = 0.500  # docs/RESULTS.md, `make train-fast` (fast_res2_seed0): 1,000 held-out episodes
+FAST_CLAIMED_SUCCESS = 0.500  # docs/RESULTS.md, `make train-fast` (fast_residual_seed0): 1,000 held-out episodes
 FAST_TOLERANCE = 0.14  # 50 episodes: the binomial standard deviation at 50% is 0.071
 
 
