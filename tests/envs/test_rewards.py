@@ -214,3 +214,25 @@ def test_proximity_ramps_toward_a_collision_before_it_happens():
     ramp = 1 - (math.hypot(0.25, 0.25) - 0.3) / 0.2
     assert r[0] == pytest.approx(ref[0] - 2.0 * ramp, abs=1e-5)
     assert r[1] == pytest.approx(ref[1] - 2.0 * ramp, abs=1e-5)
+
+
+def test_leader_robot_collision_share():
+    """reward.leader_robot_collision: the leader's share of R5; at 0 a contact leaves its guided term in place."""
+    slots = v_slots()
+    near = [list(p) for p in slots]
+    near[1] = [slots[0][0] - 0.15, slots[0][1] + 0.1]  # L1 0.18 m from the leader: a robot contact
+    ref, _ = rewards_at(make_env(), near)
+    assert ref[0] == pytest.approx(RewardConfig().robot_collision)  # the paper: the leader takes R5
+    for share in (0.0, 0.5):
+        cfg = EnvConfig(num_obstacles=1)
+        cfg.reward = RewardConfig(leader_robot_collision=share)
+        r, _ = rewards_at(FormationEnv(1, config=cfg, seed=0), near)
+        np.testing.assert_allclose(r[1:], ref[1:], atol=1e-6)  # followers unchanged
+        if share:
+            assert r[0] == pytest.approx(share * RewardConfig().robot_collision)
+        else:  # the leader's guided term: -|p - g| at the paper's weights
+            assert r[0] == pytest.approx(-math.dist(slots[0], (3.2, 3.2)), abs=1e-5)
+    with pytest.raises(ValueError, match=r"env.reward.leader_robot_collision = 2"):
+        bad = EnvConfig()
+        bad.reward = RewardConfig(leader_robot_collision=2)
+        bad.validate()
