@@ -13,3 +13,6 @@ class ModelConfig:
     residual: str = "none"  # none: the paper's actors | apf: each actor outputs a correction to the classical
     # controller, clip(apf(o) + residual_scale * tanh(mu(o)), -1, 1), starting at zero (ours, not the paper's)
     residual_scale: float = 0.5  # model.residual=apf: the largest correction per action component
+    leader_critic: str = "joint"  # joint: the paper's centralized critic for every robot | own: the leader's critic
+    #                               reads its own observation and action only (ours; for rewards where the leader
+    #                               answers for nothing the followers do, env.reward.leader_robot_collision=0)

@@ -201,12 +201,17 @@ class PerRobotMLP(nn.Module):
         on = self.compute_dtype is not None if self.hand_written is None else self.hand_written
         return on and type(self.activation) is nn.ReLU
 
-    def relu_layers(self, x: torch.Tensor, action: torch.Tensor | None = None) -> torch.Tensor:
+    def relu_layers(self, x: torch.Tensor, action: torch.Tensor | None = None,
+                    first: torch.Tensor | None = None) -> torch.Tensor:
         """Every layer through :class:`_ReluLayers`: on robot-major ``x`` ``[N, B, in]``, or (critic) on the joint
         input of observations ``x`` ``[B, N, D]`` and ``action`` ``[B, N, 2]``; returns ``[N, B, out]``. Hidden
-        layers in ``compute_dtype`` while gradients are on, in fp32 otherwise (as :meth:`layers_from`)."""
+        layers in ``compute_dtype`` while gradients are on, in fp32 otherwise (as :meth:`layers_from`).
+        ``first``: the first layer's weights to use instead of ``weights[0]`` (a masked copy)."""
         dtype = self.compute_dtype if torch.is_grad_enabled() else None
-        return _ReluLayers.apply(x, action, self.num_robots, dtype, *self.weights, *self.biases)[0]
+        weights = list(self.weights)  # (a list: slicing a ParameterList makes new Parameters)
+        if first is not None:
+            weights[0] = first
+        return _ReluLayers.apply(x, action, self.num_robots, dtype, *weights, *self.biases)[0]
 
     def layers_from(self, h: torch.Tensor, first: int) -> torch.Tensor:
         """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``.
@@ -227,24 +232,41 @@ class CentralizedCritic(nn.Module):
     Critic i sees every observation and action; gradients reach the actions only through a_i
     (the others enter detached), so ``-sum_i Q_i`` trains actor i on its own critic, as in MADDPG.
     The first layer, over the joint input shared by all critics, runs as one GEMM instead of N.
+
+    ``own_only``: robots whose critic reads only their own observation and action (a zero mask on the
+    rest of the first layer's rows): for a robot whose reward depends on nothing the others do, the
+    others' inputs are noise to its critic.
     """
 
     def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu"):
+                 activation: str = "relu", own_only: tuple[int, ...] = ()):
         super().__init__()
+        n, d = num_robots, obs_dim
         # critic i's first-layer input: every observation (N*D), then every action (N*2)
-        self.mlp = PerRobotMLP(num_robots, num_robots * (obs_dim + action_dim), 1, hidden, activation)
+        self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation)
+        mask = None
+        if own_only:
+            mask = torch.ones(n, n * (d + action_dim), 1)
+            for i in own_only:
+                mask[i] = 0.0
+                mask[i, i * d:(i + 1) * d] = 1.0
+                mask[i, n * d + i * action_dim:n * d + (i + 1) * action_dim] = 1.0
+            with torch.no_grad():  # nn.Linear's initialisation for the fan-in the robot really has
+                self.mlp.weights[0][list(own_only)] *= math.sqrt(n)
+        self.register_buffer("input_mask", mask)  # None: every critic reads everything
 
     def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = observation.shape[:-2], observation.shape[-2:]
         act = action.reshape(-1, n, 2)
         dead = act.detach()
+        w1, b1 = self.mlp.weights[0], self.mlp.biases[0]
+        if self.input_mask is not None:
+            w1 = w1 * self.input_mask
         if self.mlp.fast:  # the same, forward and backward by hand
-            h = self.mlp.relu_layers(observation.reshape(-1, n, d), act)  # [N, B, 1]
+            h = self.mlp.relu_layers(observation.reshape(-1, n, d), act, first=w1)  # [N, B, 1]
             return h.transpose(0, 1).reshape(*lead, n, 1)
         # first layer of all N critics as one GEMM over the shared joint input, bias fused:
         # [B, N*D + 2N] @ [N*D + 2N, N*H] (weights [N, N*D + 2N, H] laid side by side)
-        w1, b1 = self.mlp.weights[0], self.mlp.biases[0]
         h_dim = w1.shape[-1]
         joint = torch.cat([observation.reshape(-1, n * d), dead.reshape(-1, 2 * n)], -1)
         with _hidden_autocast(joint, self.mlp.compute_dtype):
@@ -313,10 +335,12 @@ def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str
     return TensorDictModule(net, in_keys=[("agents", "observation")], out_keys=[("agents", "action")])
 
 
-def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu") -> ValueOperator:
-    """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``."""
+def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
+                own_only: tuple[int, ...] = ()) -> ValueOperator:
+    """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``
+    (``own_only``: see :class:`CentralizedCritic`)."""
     return ValueOperator(
-        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation),
+        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only)),
         in_keys=[("agents", "observation"), ("agents", "action")],
         out_keys=[("agents", "state_action_value")],
     )

@@ -78,7 +78,8 @@ class Trainer:
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
                                 residual_scale=cfg.model.residual_scale).to(dev)
-        critic = make_critic(n, d, hidden, cfg.model.activation).to(dev)
+        critic = make_critic(n, d, hidden, cfg.model.activation,
+                             own_only=(0,) if cfg.model.leader_critic == "own" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)

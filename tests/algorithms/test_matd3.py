@@ -194,3 +194,20 @@ def test_torchrl_actor_loss_reaches_the_actors_through_our_critic():
     loss.mean().backward()
     grads = [p.grad for p in algo.loss.actor_network_params.values(True, True)]
     assert all(g is not None and g.abs().sum() > 0 for g in grads)
+
+
+def test_own_only_leader_critic_stays_own_only_through_updates():
+    """The input mask survives TorchRL's twin-critic expansion and the optimiser: after updates the
+    leader's twin critics still ignore the followers' observations and actions."""
+    cfg = AlgoConfig(name="matd3", policy_delay=1)
+    algo = MATD3(make_actor(N, D, (16, 16)), make_critic(N, D, (16, 16), own_only=(0,)), cfg)
+    for _ in range(3):
+        algo.update(make_batch())
+    td = make_batch()
+    q0 = q_values(algo, algo.loss.qvalue_network_params, td)  # [C, B, N]
+    other = td.clone()
+    other["agents", "observation"][:, 1:] += 1.0
+    other["agents", "action"][:, 1:] *= -1
+    q1 = q_values(algo, algo.loss.qvalue_network_params, other)
+    torch.testing.assert_close(q1[..., 0], q0[..., 0])  # leader: unchanged
+    assert ((q1[..., 1:] - q0[..., 1:]).abs() > 1e-6).any()

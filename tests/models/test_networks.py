@@ -185,3 +185,23 @@ def test_bf16_is_refused_where_the_cpu_lacks_it(monkeypatch):
         validate(TrainConfig(precision="bf16"))
     with pytest.raises(ValueError, match=r"^precision = 'fp16' is invalid: must be fp32 or bf16"):
         validate(TrainConfig(precision="fp16"))
+
+
+@pytest.mark.parametrize("hand_written", [False, True])
+def test_own_only_critic_reads_its_own_observation_and_action(hand_written):
+    """make_critic(own_only=(0,)): the leader's critic ignores every other robot; the others still see all."""
+    critic = make_critic(N, D, (16, 16), own_only=(0,))
+    critic.module.mlp.hand_written = hand_written
+    obs, act = torch.randn(3, N, D), torch.rand(3, N, 2) * 2 - 1
+    q0 = critic(td(obs.clone(), act.clone()))["agents", "state_action_value"]
+    for j in range(N):
+        o, a = obs.clone(), act.clone()
+        o[:, j] += 0.5
+        a[:, j] = -a[:, j]
+        moved = (critic(td(o, a))["agents", "state_action_value"] - q0).abs().amax((0, 2)) > 1e-6  # per critic
+        assert moved[0].item() == (j == 0)  # the leader's critic moves only with its own inputs
+        assert moved[1:].all()
+    obs.requires_grad_()
+    q = critic(td(obs, act))["agents", "state_action_value"]
+    (grad,) = torch.autograd.grad(q[:, 0].sum(), obs)
+    assert (grad[:, 1:] == 0).all() and grad[:, 0].abs().sum() > 0

@@ -1,0 +1,102 @@
+"""Learning A/B of ``precision=fp32`` against ``precision=bf16``: the same recipe, several seeds each.
+
+Reads finished run directories (TensorBoard events and ``metrics.json``), writes beside ``--out``:
+
+- ``precision_ab.md``: the final evaluation per precision, mean ± 95% CI across seeds, per-seed values;
+- ``precision_ab.png``: the critics' Q-value and TD-error curves and the evaluation success, per
+  precision (thin lines: seeds, thick: their mean).
+
+    python benchmarks/precision_ab.py --fp32 RUN... --bf16 RUN... --out DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import sys
+from pathlib import Path
+
+import torch
+
+from formation_rl.evaluation.evaluate import mean_ci
+
+METRICS = ("success", "at_goal", "UDBLT", "RFSE", "CBRS", "CBRO", "episode_reward")
+CURVES = (("algo/q_value", "critic Q-value (batch mean)"), ("algo/td_error", "|TD error| (batch mean)"),
+          ("eval/success", "evaluation success"))
+
+
+def scalars(run: Path) -> dict[str, tuple[list[int], list[float]]]:
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    events = glob.glob(str(run / "tb" / "**" / "events*"), recursive=True)
+    if not events:
+        sys.exit(f"--runs: {run} has no TensorBoard events (tb/); pass finished run directories")
+    acc = EventAccumulator(events[0], size_guidance={"scalars": 0})
+    acc.Reload()
+    out = {}
+    for tag, _ in CURVES:
+        if tag in acc.Tags()["scalars"]:
+            ev = acc.Scalars(tag)
+            out[tag] = ([e.step for e in ev], [e.value for e in ev])
+    return out
+
+
+def final(run: Path) -> dict[str, float]:
+    path = run / "metrics.json"
+    if not path.exists():
+        sys.exit(f"--runs: {run} has no metrics.json; pass finished run directories")
+    m = json.loads(path.read_text())
+    m = m.get("final", m)
+    return {k: float(m[k]) for k in METRICS if k in m}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--fp32", nargs="+", type=Path, required=True)
+    p.add_argument("--bf16", nargs="+", type=Path, required=True)
+    p.add_argument("--out", type=Path, required=True)
+    args = p.parse_args()
+    groups = {"fp32": args.fp32, "bf16": args.bf16}
+    args.out.mkdir(parents=True, exist_ok=True)
+
+    lines = ["| metric | " + " | ".join(f"{g} (mean ± 95% CI, n={len(r)})" for g, r in groups.items())
+             + " | per seed fp32 | per seed bf16 |", "|---|---|---|---|---|"]
+    finals = {g: [final(r) for r in runs] for g, runs in groups.items()}
+    for k in METRICS:
+        cells, seeds = [], []
+        for g in groups:
+            vals = torch.tensor([f[k] for f in finals[g] if k in f], dtype=torch.float64)
+            m, h = mean_ci(vals)
+            cells.append(f"{m:.3g} ± {h:.2g}")
+            seeds.append(", ".join(f"{v:.3g}" for v in vals.tolist()))
+        lines.append(f"| {k} | " + " | ".join(cells) + " | " + " | ".join(seeds) + " |")
+    (args.out / "precision_ab.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(CURVES), figsize=(5 * len(CURVES), 3.6))
+    for (tag, title), ax in zip(CURVES, axes, strict=True):
+        for g, color in zip(groups, ("tab:blue", "tab:orange"), strict=True):
+            curves = [scalars(r).get(tag) for r in groups[g]]
+            curves = [c for c in curves if c]
+            for x, y in curves:
+                ax.plot(x, y, color=color, alpha=0.3, lw=0.8)
+            n = min(len(c[0]) for c in curves) if curves else 0
+            if n:
+                mean = torch.tensor([c[1][:n] for c in curves]).mean(0)
+                ax.plot(curves[0][0][:n], mean, color=color, lw=2, label=g)
+        ax.set_title(title)
+        ax.set_xlabel("frames")
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(args.out / "precision_ab.png", dpi=110)
+    print(f"wrote {args.out / 'precision_ab.md'} and {args.out / 'precision_ab.png'}")
+
+
+if __name__ == "__main__":
+    main()
