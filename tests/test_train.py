@@ -72,68 +72,6 @@ def test_tiny_run_logs_checkpoints_and_evaluates(tmp_path, algo):
     assert not list((tmp_path / "checkpoints").glob("*.tmp"))
 
 
-def test_resume_continues_counters_and_state(tmp_path):
-    first = Trainer(tiny("matd3", frames=1600), tmp_path)
-    first.train()
-    steps, actor = first.algo.critic_steps, [p.detach().clone() for p in first.algo.actor_params]
-    second = Trainer(tiny("matd3", frames=3200), tmp_path)
-    second.load_checkpoint("auto")
-    assert (second.frames, second.episodes, second.algo.critic_steps) == (1600, first.episodes, steps)
-    assert all(torch.equal(a, b) for a, b in zip(actor, second.algo.actor_params, strict=True))
-    assert second.algo.actor_optim.state_dict()["state"]  # Adam moments came back
-    second.train()
-    assert second.frames == 3200 and second.algo.critic_steps > steps
-    tags = scalars(tmp_path)
-    assert max(s for s, _ in tags["eval/success"]) == 3200
-
-
-def test_resume_with_the_saved_replay_buffer(tmp_path):
-    """save_buffer=true: the transitions and their priorities come back; a dump cut short is never loaded."""
-    def cfg(frames, save=True):
-        c = tiny("per_matd3", frames=frames, save_buffer=save)
-        c.algo.buffer_size = 4000
-        return c
-
-    first = Trainer(cfg(1600), tmp_path)
-    first.train()
-    stored, size = first.buffer[:].clone(), len(first.buffer)
-    priorities = first.buffer.sampler._sum_tree[torch.arange(size)]  # the sum tree's leaves: (|delta| + eps)^alpha
-    dump = tmp_path / "checkpoints" / "buffer"
-    assert (dump / "COMPLETE").is_file() and not dump.with_name("buffer.tmp").exists()
-    second = Trainer(cfg(3200), tmp_path)
-    second.load_checkpoint("auto")
-    assert len(second.buffer) == size == 1600
-    assert torch.equal(second.buffer[:]["agents", "observation"], stored["agents", "observation"])
-    assert torch.equal(second.buffer.sampler._sum_tree[torch.arange(size)], priorities) and priorities.max() > 0
-    # a crash between the two renames: only the complete .tmp dump is left, and it is the one loaded
-    dump.rename(dump.with_name("buffer.tmp"))
-    (tmp_path / "checkpoints" / "buffer.old").mkdir()  # an older dump, incomplete: never chosen
-    third = Trainer(cfg(3200), tmp_path)
-    third.load_checkpoint("auto")
-    assert len(third.buffer) == size
-    third.train()  # the next checkpoint tidies up: one complete dump under the final name
-    assert (dump / "COMPLETE").is_file() and not dump.with_name("buffer.tmp").exists()
-    # a dump without the marker (cut short, or from an older version) is not trusted, and the user is told
-    (dump / "COMPLETE").unlink()
-    with pytest.warns(UserWarning, match="has no COMPLETE marker"):
-        Trainer(cfg(4800), tmp_path).load_checkpoint("auto")
-    # without save_buffer the buffer starts empty
-    fourth = Trainer(cfg(4800, save=False), tmp_path)
-    fourth.load_checkpoint("auto")
-    assert len(fourth.buffer) == 0
-
-
-def test_resume_rejects_another_team(tmp_path):
-    Trainer(tiny("matd3", frames=800), tmp_path).train()
-    other = tiny("matd3", frames=1600)
-    other.env.num_robots = 4
-    with pytest.raises(ValueError, match=r"resume: env.num_robots = 4 but the checkpoint .* has 3"):
-        Trainer(other, tmp_path).load_checkpoint("auto")
-    (tmp_path / CHECKPOINT).write_bytes(b"not a checkpoint")
-    with pytest.raises(ValueError, match="truncated or corrupt"):
-        Trainer(tiny("matd3", frames=1600), tmp_path).load_checkpoint("auto")
-
-
 def test_load_policy_without_optimiser_state(tmp_path):
     trainer = Trainer(tiny("per_matd3", frames=800), tmp_path)
     trainer.train()

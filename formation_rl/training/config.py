@@ -36,7 +36,7 @@ class TrainConfig:
     eval_episodes: int = 100  # held-out episodes per evaluation, run as that many batched copies
     eval_seed: int = 1_000_000_007  # scenario seed of the evaluation set, disjoint from training seeds
     checkpoint_interval: int = 100_000  # frames between checkpoints (and at the end)
-    save_buffer: bool = False  # also checkpoint the replay buffer (large: ~1 kB per frame)
+    save_buffer: bool = False  # also checkpoint the replay buffer, inside last.pt (large: ~1 kB per frame)
     resume: str | None = None  # a checkpoint file or run directory to continue from; "auto": this run's
     progress: bool = True  # progress bar
     threads: int | None = None  # torch intra-op threads (None: torch's default; sweeps set 1 per job)
