@@ -16,7 +16,6 @@ from test_train import tiny
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import episode_metrics
 from formation_rl.evaluation.evaluate import evaluate_policy, mean_ci
-from formation_rl.evaluation.policy import load_policy, output_dir
 from formation_rl.training.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -135,35 +134,3 @@ def test_eval_and_render_write_under_outputs_never_beside_the_checkpoint(tmp_pat
     # and no empty timestamped Hydra directory beside them
     assert sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "outputs").rglob("*") if p.is_dir()) == \
         ["outputs/eval", "outputs/eval/fast", "outputs/render", "outputs/render/fast"]
-
-
-def test_default_output_directory_names_the_checkpoint_or_run(tmp_path):
-    run = tmp_path / "2026-01-01_00-00-00_seed0"
-    (run / "checkpoints").mkdir(parents=True)
-    (run / "checkpoints" / "policy.pt").touch()
-    assert output_dir("eval", run) == Path("outputs/eval/2026-01-01_00-00-00_seed0")
-    assert output_dir("render", run / "checkpoints" / "last.pt") == Path("outputs/render/2026-01-01_00-00-00_seed0")
-    assert output_dir("eval", ROOT / "pretrained" / "per_matd3.pt") == Path("outputs/eval/per_matd3")
-    assert output_dir("render", "apf") == Path("outputs/render/apf")
-
-
-@pytest.mark.parametrize("launcher", ["local", "slurm_local"])
-def test_two_job_multirun(tmp_path, launcher):
-    out = _cli("formation_rl.apps.train", "-m", f"hydra/launcher={launcher}", f"hydra.sweep.dir={tmp_path}",
-               "algo=maddpg,matd3", "total_frames=400", "num_envs=4", "steps_per_batch=20",
-               "algo.warmup_frames=160", "algo.batch_size=32", "eval_episodes=2", "env.max_steps=20",
-               "model.hidden=[16,16]", "threads=1", "progress=false")
-    assert out.returncode == 0, out.stderr[-3000:]
-    for algo in ("maddpg", "matd3"):
-        assert (tmp_path / f"{algo}_seed0" / "metrics.json").is_file()
-        assert list((tmp_path / f"{algo}_seed0" / "tb").glob("events*"))
-
-
-def test_corrupt_or_foreign_checkpoint_is_one_clear_error(tmp_path):
-
-    (tmp_path / "policy.pt").write_bytes(b"\x00garbage")
-    with pytest.raises(ValueError, match="cannot be read .*: it is truncated or corrupt"):
-        load_policy(tmp_path)
-    torch.save({"format": 99, "version": "9.9"}, tmp_path / "policy.pt")
-    with pytest.raises(ValueError, match=r"has format 99 \(formation_rl 9.9\); this formation_rl .* reads format 1"):
-        load_policy(tmp_path)
