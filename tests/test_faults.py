@@ -109,8 +109,8 @@ def test_same_seed_same_run_different_seed_different_draws(tmp_path):
 
 
 BAD_INPUT = [  # (entry point, arguments, the one line it must print)
-    ("train", ["algo=ppo"], "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3, per_matd3"),
-    ("train", ["algo=apf"], "algo.name = 'apf' is invalid for training: apf is the classical controller"),
+    ("train", ["algo=ppo"], "algo = 'ppo' is invalid: must be one of maddpg, matd3, per_matd3"),
+    ("train", ["algo=apf"], "algo = 'apf' is invalid: must be one of maddpg, matd3, per_matd3"),
     ("train", ["algo.bc_weight=-1"], "algo.bc_weight = -1.0 is invalid: must be >= 0"),
     ("train", ["formation=star"], "formation = 'star' is invalid: must be one of chain, v"),
     ("train", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
@@ -131,7 +131,7 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["env.max_speed=0"], "env.max_speed = 0.0 is invalid: must be a finite number > 0"),
     ("train", ["resume=/no/such/run"], "resume = '/no/such/run' is invalid: no checkpoint at /no/such/run"),
     ("formation_rl.apps.train", ["-m", "algo=maddpg,ppo"],
-     "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3"),
+     "algo = 'ppo' is invalid: must be one of maddpg, matd3"),
     ("formation_rl.apps.evaluate", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
     ("formation_rl.apps.evaluate", ["ckpt=x", "episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
     ("formation_rl.apps.evaluate", ["ckpt=x", "num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),

@@ -15,7 +15,7 @@ from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.models.controller import APFController
 from formation_rl.training.checkpoint import CHECKPOINT, POLICY
 from formation_rl.training.config import TrainConfig
-from formation_rl.training.trainer import Trainer
+from formation_rl.training.trainer import Trainer, to_train_config
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -139,7 +139,7 @@ def test_default_budget_learning_check(tmp_path):
 
     with initialize_config_dir(config_dir=str(ROOT / "formation_rl" / "conf"), version_base=None):
         cfg = compose(config_name="config", overrides=["progress=false"])
-    trainer = Trainer(cfg, tmp_path)
+    trainer = Trainer(to_train_config(cfg), tmp_path)
     final = trainer.train()
     evals = scalars(tmp_path)
     untrained = {k.split("/")[1]: v[0][1] for k, v in evals.items() if k.startswith("eval/")}

@@ -57,9 +57,6 @@ def validate(cfg: TrainConfig) -> None:
         if not ok:
             raise ValueError(f"{name} = {value!r} is invalid: must be {allowed}")
 
-    if a.name == "apf":
-        raise ValueError("algo.name = 'apf' is invalid for training: apf is the classical controller and learns "
-                         "nothing; evaluate it with `make eval CKPT=apf` (render: `make render CKPT=apf`)")
     check(a.name in ALGORITHMS, "algo.name", a.name, f"one of {', '.join(ALGORITHMS)}")
     check(a.num_critics in (1, 2), "algo.num_critics", a.num_critics, "1 or 2")
     for name in ("lr_actor", "lr_critic"):

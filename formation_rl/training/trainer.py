@@ -29,7 +29,7 @@ from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, NonFiniteError, ma
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
 from formation_rl.models import make_actor, make_critic, set_precision
-from formation_rl.models.controller import residual_base
+from formation_rl.models.controller import APFController, residual_base
 from formation_rl.training.checkpoint import (
     CHECKPOINT,
     FORMAT,
@@ -43,13 +43,9 @@ from formation_rl.training.replay import make_replay_buffer, to_transitions
 from formation_rl.training.timing import Timings
 
 
-def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
-    """A typed ``TrainConfig`` from Hydra's config (or a plain dict); the env part validated."""
-    if isinstance(cfg, TrainConfig):
-        return cfg
-    if isinstance(cfg, DictConfig):
-        cfg = OmegaConf.to_container(cfg, resolve=True)
-    cfg = dict(cfg)
+def to_train_config(cfg: DictConfig) -> TrainConfig:
+    """The typed ``TrainConfig`` of Hydra's composed config (``EnvConfig.from_dict`` builds the world's part)."""
+    cfg = OmegaConf.to_container(cfg, resolve=True)
     out = TrainConfig(**{k: v for k, v in cfg.items() if k not in ("env", "algo", "model")})
     out.env = EnvConfig.from_dict(cfg.get("env", {}))
     out.algo = dataclasses.replace(out.algo, **cfg.get("algo", {}))
@@ -58,8 +54,7 @@ def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
 
 
 class Trainer:
-    def __init__(self, cfg: TrainConfig | DictConfig | dict, run_dir: str | Path):
-        cfg = to_train_config(cfg)
+    def __init__(self, cfg: TrainConfig, run_dir: str | Path):
         validate(cfg)
         cfg.env.validate()
         self.cfg, self.run_dir = cfg, Path(run_dir)
@@ -80,8 +75,6 @@ class Trainer:
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
         if a.bc_weight > 0:  # the classical controller anchors the actor loss
-            from formation_rl.models.controller import APFController
-
             self.algo.anchor = APFController(cfg.env).to(dev)
         if cfg.cudagraphs:
             self.algo.enable_cudagraphs()
