@@ -296,8 +296,9 @@ class Trainer:
     def load_checkpoint(self, path: str | Path) -> None:
         """Resume from a ``last.pt``, a run directory, or ``auto`` (this run's own ``last.pt``)."""
         path = resolve_checkpoint(path, self.run_dir)
+        state = load_checkpoint_file(path)  # its errors name the file already
         try:
-            self.load_state_dict(load_checkpoint_file(path))
+            self.load_state_dict(state)
         except ValueError as err:
             raise ValueError(f"{err} ({path})") from None
 
