@@ -10,6 +10,10 @@ JOBS ?= $(shell nproc)
 SWEEP ?= outputs/sweep
 
 STUDY ?= recipe
+# "a b" -> [a,b]: a space-separated CKPT or RUNS as one Hydra list
+empty :=
+comma := ,
+hydra_list = [$(subst $(empty) $(empty),$(comma),$(strip $(1)))]
 
 .PHONY: tune help setup train train-paper train-fast eval diagnose ceiling render sweep compare tensorboard demo test test-slow bench-env bench bench-gpu lint clean
 
@@ -36,8 +40,8 @@ train-fast: $(PY)  ## our quickest recipe (~10 min): actors correcting the class
 eval: $(PY)  ## evaluate CKPT (policy.pt, last.pt or run dir) on 1,000 held-out episodes; ARGS = overrides
 	$(PY) -m formation_rl.apps.evaluate ckpt=$(CKPT) $(ARGS)
 
-diagnose: $(PY)  ## why CKPT's episodes fail: success split into goal / collision parts, first-collision times
-	$(PY) -m formation_rl.apps.diagnose $(CKPT) $(ARGS)
+diagnose: $(PY)  ## why CKPT's episodes fail (several: CKPT="a b"): success split into its parts, first collisions
+	$(PY) -m formation_rl.apps.diagnose 'ckpt=$(call hydra_list,$(CKPT))' $(ARGS)
 
 ceiling: $(PY)  ## what the 0.2 m obstacle sensing range allows a reactive team: apf gains searched per range (~10 min)
 	$(PY) -m formation_rl.apps.ceiling $(ARGS)
@@ -52,8 +56,8 @@ sweep: $(PY)  ## algo x seed multirun (JOBS parallel jobs) into SWEEP; ARGS e.g.
 tune: $(PY)  ## Optuna study of the training recipe (SQLite in outputs/tune/, resumable; ARGS e.g. "trials=40 workers=2")
 	$(PY) -m formation_rl.apps.tune study=$(STUDY) $(ARGS)
 
-compare: $(PY)  ## Figures 6-9 and Table 1 from RUNS (run dirs or a sweep dir)
-	$(PY) -m formation_rl.apps.report $(RUNS) $(ARGS)
+compare: $(PY)  ## Figures 6-9 and Table 1 from RUNS (run dirs or a sweep dir); ARGS e.g. "by=env.reward.variant"
+	$(PY) -m formation_rl.apps.report 'runs=$(call hydra_list,$(RUNS))' $(ARGS)
 
 tensorboard: $(PY)  ## serve TensorBoard over RUNS (default outputs/); ARGS e.g. "--port 6007 --bind_all"
 	$(VENV)/bin/tensorboard --logdir $(RUNS) $(ARGS)

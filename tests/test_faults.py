@@ -109,8 +109,8 @@ def test_same_seed_same_run_different_seed_different_draws(tmp_path):
 
 
 BAD_INPUT = [  # (entry point, arguments, the one line it must print)
-    ("train", ["algo=ppo"], "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3, per_matd3"),
-    ("train", ["algo=apf"], "algo.name = 'apf' is invalid for training: apf is the classical controller"),
+    ("train", ["algo=ppo"], "algo = 'ppo' is invalid: must be one of maddpg, matd3, per_matd3"),
+    ("train", ["algo=apf"], "algo = 'apf' is invalid: must be one of maddpg, matd3, per_matd3"),
     ("train", ["algo.bc_weight=-1"], "algo.bc_weight = -1.0 is invalid: must be >= 0"),
     ("train", ["formation=star"], "formation = 'star' is invalid: must be one of chain, v"),
     ("train", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
@@ -131,7 +131,7 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["env.max_speed=0"], "env.max_speed = 0.0 is invalid: must be a finite number > 0"),
     ("train", ["resume=/no/such/run"], "resume = '/no/such/run' is invalid: no checkpoint at /no/such/run"),
     ("formation_rl.apps.train", ["-m", "algo=maddpg,ppo"],
-     "algo = 'ppo' is invalid: must be one of apf, maddpg, matd3"),
+     "algo = 'ppo' is invalid: must be one of maddpg, matd3"),
     ("formation_rl.apps.evaluate", ["ckpt=/no/such/run"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
     ("formation_rl.apps.evaluate", ["ckpt=x", "episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
     ("formation_rl.apps.evaluate", ["ckpt=x", "num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
@@ -144,17 +144,24 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("formation_rl.apps.demo", ["num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
     ("formation_rl.apps.demo", ["episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
     ("formation_rl.apps.demo", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
-    ("formation_rl.apps.report", ["/no/such/dir"], "runs: '/no/such/dir' does not exist"),
-    ("formation_rl.apps.report", [".", "--smooth", "2"], "--smooth = 2.0 is invalid: must be in [0, 1)"),
+    ("formation_rl.apps.diagnose", [], "ckpt = None is invalid: must be a policy.pt, last.pt, run directory or apf"),
+    ("formation_rl.apps.diagnose", ["ckpt=[apf,/no/such/run]"], "ckpt = '/no/such/run' is invalid: no policy.pt"),
+    ("formation_rl.apps.diagnose", ["ckpt=apf", "episodes=0"], "episodes = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.apps.ceiling", ["trials=0"], "trials = 0 is invalid: must be an integer >= 1"),
+    ("formation_rl.apps.ceiling", ["ranges=[0.2,-1]"], "ranges = [0.2, -1.0] is invalid: must be a non-empty list"),
+    ("formation_rl.apps.ceiling", ["ranges=[0.2,near]"], "ranges = [0.2, 'near'] is invalid: Value 'near'"),
+    ("formation_rl.apps.report", ["runs=/no/such/dir"], "runs = '/no/such/dir' is invalid: no such directory"),
+    ("formation_rl.apps.report", ["runs=[.]", "smooth=2"], "smooth = 2.0 is invalid: must be in [0, 1)"),
+    ("formation_rl.apps.report", ["runs=.", "group=algo.name"], "group: unknown key; allowed here: by, out, runs"),
 ]
 
 
 @pytest.mark.parametrize("entry,args,message", BAD_INPUT, ids=[f"{e.split('.')[-1]} {' '.join(a)}"
                                                                for e, a, _ in BAD_INPUT])
 def test_bad_input_is_one_line_before_compute(tmp_path, capsys, entry, args, message):
-    """`make train|eval|render|demo|compare|sweep` with bad input: one line naming field, value and what is
-    allowed, exit code 2, nothing written. ``train`` rows run in process (override pre-check, then the typed
-    config's validation, as the CLI does); the others run the real command."""
+    """`make train|eval|render|demo|diagnose|ceiling|compare|sweep` with bad input: one line naming field, value
+    and what is allowed, exit code 2, nothing written. ``train`` rows run in process (override pre-check, then the
+    typed config's validation, as the CLI does); the others run the real command."""
     if entry == "train":
         with pytest.raises((SystemExit, ValueError)) as err:
             check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "env"), args)
@@ -166,7 +173,7 @@ def test_bad_input_is_one_line_before_compute(tmp_path, capsys, entry, args, mes
         text = capsys.readouterr().err.strip() if err.type is SystemExit else f"error: {err.value}"
         code = 2 if err.type is ValueError else err.value.code
     else:
-        hydra_dirs = [] if entry.endswith("report") else [f"hydra.run.dir={tmp_path}", f"hydra.sweep.dir={tmp_path}"]
+        hydra_dirs = [f"hydra.run.dir={tmp_path}", f"hydra.sweep.dir={tmp_path}"]
         out = subprocess.run([sys.executable, "-m", entry, *args, *hydra_dirs], cwd=tmp_path, capture_output=True,
                              text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
         text, code = out.stderr.strip(), out.returncode

@@ -15,7 +15,7 @@ from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.models.controller import APFController
 from formation_rl.training.checkpoint import CHECKPOINT, POLICY
 from formation_rl.training.config import TrainConfig
-from formation_rl.training.trainer import Trainer
+from formation_rl.training.trainer import Trainer, to_train_config
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -72,82 +72,6 @@ def test_tiny_run_logs_checkpoints_and_evaluates(tmp_path, algo):
     assert not list((tmp_path / "checkpoints").glob("*.tmp"))
 
 
-def test_resume_continues_counters_and_state(tmp_path):
-    first = Trainer(tiny("matd3", frames=1600), tmp_path)
-    first.train()
-    steps, actor = first.algo.critic_steps, [p.detach().clone() for p in first.algo.actor_params]
-    second = Trainer(tiny("matd3", frames=3200), tmp_path)
-    second.load_checkpoint("auto")
-    assert (second.frames, second.episodes, second.algo.critic_steps) == (1600, first.episodes, steps)
-    assert all(torch.equal(a, b) for a, b in zip(actor, second.algo.actor_params, strict=True))
-    assert second.algo.actor_optim.state_dict()["state"]  # Adam moments came back
-    second.train()
-    assert second.frames == 3200 and second.algo.critic_steps > steps
-    tags = scalars(tmp_path)
-    assert max(s for s, _ in tags["eval/success"]) == 3200
-
-
-def test_resume_with_the_saved_replay_buffer(tmp_path):
-    """save_buffer=true: the transitions and their priorities come back; a dump cut short is never loaded."""
-    def cfg(frames, save=True):
-        c = tiny("per_matd3", frames=frames, save_buffer=save)
-        c.algo.buffer_size = 4000
-        return c
-
-    first = Trainer(cfg(1600), tmp_path)
-    first.train()
-    stored, size = first.buffer[:].clone(), len(first.buffer)
-    priorities = first.buffer.sampler._sum_tree[torch.arange(size)]  # the sum tree's leaves: (|delta| + eps)^alpha
-    dump = tmp_path / "checkpoints" / "buffer"
-    assert (dump / "COMPLETE").is_file() and not dump.with_name("buffer.tmp").exists()
-    second = Trainer(cfg(3200), tmp_path)
-    second.load_checkpoint("auto")
-    assert len(second.buffer) == size == 1600
-    assert torch.equal(second.buffer[:]["agents", "observation"], stored["agents", "observation"])
-    assert torch.equal(second.buffer.sampler._sum_tree[torch.arange(size)], priorities) and priorities.max() > 0
-    # a crash between the two renames: only the complete .tmp dump is left, and it is the one loaded
-    dump.rename(dump.with_name("buffer.tmp"))
-    (tmp_path / "checkpoints" / "buffer.old").mkdir()  # an older dump, incomplete: never chosen
-    third = Trainer(cfg(3200), tmp_path)
-    third.load_checkpoint("auto")
-    assert len(third.buffer) == size
-    third.train()  # the next checkpoint tidies up: one complete dump under the final name
-    assert (dump / "COMPLETE").is_file() and not dump.with_name("buffer.tmp").exists()
-    # a dump without the marker (cut short, or from an older version) is not trusted, and the user is told
-    (dump / "COMPLETE").unlink()
-    with pytest.warns(UserWarning, match="has no COMPLETE marker"):
-        Trainer(cfg(4800), tmp_path).load_checkpoint("auto")
-    # without save_buffer the buffer starts empty
-    fourth = Trainer(cfg(4800, save=False), tmp_path)
-    fourth.load_checkpoint("auto")
-    assert len(fourth.buffer) == 0
-
-
-def test_resume_rejects_another_team(tmp_path):
-    Trainer(tiny("matd3", frames=800), tmp_path).train()
-    other = tiny("matd3", frames=1600)
-    other.env.num_robots = 4
-    with pytest.raises(ValueError, match=r"resume: env.num_robots = 4 but the checkpoint .* has 3"):
-        Trainer(other, tmp_path).load_checkpoint("auto")
-    (tmp_path / CHECKPOINT).write_bytes(b"not a checkpoint")
-    with pytest.raises(ValueError, match="truncated or corrupt"):
-        Trainer(tiny("matd3", frames=1600), tmp_path).load_checkpoint("auto")
-
-
-def test_load_policy_without_optimiser_state(tmp_path):
-    trainer = Trainer(tiny("per_matd3", frames=800), tmp_path)
-    trainer.train()
-    policy = formation_rl.load_policy(tmp_path)
-    obs = torch.randn(7, 3, trainer.cfg.env.obs_dim)
-    from tensordict import TensorDict
-
-    expected = trainer.actor(TensorDict({("agents", "observation"): obs}, [7]))["agents", "action"]
-    torch.testing.assert_close(policy(obs), expected)
-    assert policy(obs.numpy()).shape == (7, 3, 2)
-    with pytest.raises(ValueError, match=r"expects \[..., 3, "):
-        policy(torch.randn(2, 4, 5))
-
-
 def test_learns_to_reach_the_goal(tmp_path):
     """Learning check: two robots, no obstacles; the leader learns to approach the goal (random: ~9 m)."""
     cfg = TrainConfig(env=EnvConfig(num_robots=2, num_obstacles=0), total_frames=24000, num_envs=32,
@@ -182,6 +106,18 @@ def test_cli_tiny_run_and_errors(tmp_path):
     assert bad.returncode != 0 and "lr_actr" in bad.stderr
 
 
+@pytest.mark.parametrize("launcher", ["local", "slurm_local"])
+def test_two_job_multirun(tmp_path, launcher):
+    out = _cli("-m", f"hydra/launcher={launcher}", f"hydra.sweep.dir={tmp_path}",
+               "algo=maddpg,matd3", "total_frames=400", "num_envs=4", "steps_per_batch=20",
+               "algo.warmup_frames=160", "algo.batch_size=32", "eval_episodes=2", "env.max_steps=20",
+               "model.hidden=[16,16]", "threads=1", "progress=false")
+    assert out.returncode == 0, out.stderr[-3000:]
+    for algo in ("maddpg", "matd3"):
+        assert (tmp_path / f"{algo}_seed0" / "metrics.json").is_file()
+        assert list((tmp_path / f"{algo}_seed0" / "tb").glob("events*"))
+
+
 @pytest.mark.parametrize("module, args", [("formation_rl.apps.train", ["algo=apf"]),
                                           ("formation_rl.apps.evaluate", ["ckpt=nonexistent.pt"]),
                                           ("formation_rl.apps.render", []),
@@ -203,25 +139,13 @@ def test_default_budget_learning_check(tmp_path):
 
     with initialize_config_dir(config_dir=str(ROOT / "formation_rl" / "conf"), version_base=None):
         cfg = compose(config_name="config", overrides=["progress=false"])
-    trainer = Trainer(cfg, tmp_path)
+    trainer = Trainer(to_train_config(cfg), tmp_path)
     final = trainer.train()
     evals = scalars(tmp_path)
     untrained = {k.split("/")[1]: v[0][1] for k, v in evals.items() if k.startswith("eval/")}
     print("untrained:", untrained, "\nfinal:", final)
     assert final["episode_reward"] > untrained["episode_reward"]
     assert final["success"] > untrained["success"]
-
-
-def test_n_step_transitions_carry_the_steps_they_look_ahead(tmp_path):
-    cfg = tiny("matd3", frames=480)
-    cfg.algo.n_steps, cfg.algo.gamma = 3, 0.9
-    trainer = Trainer(cfg, tmp_path)
-    trainer.train()
-    stored = trainer.buffer[:]
-    steps = stored["steps_to_next_obs"]
-    assert stored.shape == (480,) and steps.shape == (480, 3, 1) and set(steps.unique().tolist()) == {1, 2, 3}
-    # each collector batch is [8 copies, 20 steps]: the last two steps of a batch look ahead fewer steps
-    assert (steps.view(-1, 8, 20, 3)[:, :, :18] == 3).all()
 
 
 def test_residual_actors_start_as_the_controller_learn_corrections_and_reload(tmp_path):
@@ -285,24 +209,3 @@ def test_exploration_eps_replaces_actions_with_uniform_ones_during_collection_on
     cfg.algo.exploration_eps = 1.5
     with pytest.raises(ValueError, match=r"^algo.exploration_eps = 1.5 is invalid: must be in \[0, 1\]"):
         Trainer(cfg, tmp_path / "bad")
-
-
-def test_truncated_episode_keeps_its_bootstrap_in_the_replay_buffer(tmp_path):
-    """An episode ends by truncation only (SPEC §1): its last transition is stored done and truncated but not
-    terminated, so the TD target still bootstraps from the next observation (1 - terminated = 1)."""
-    from formation_rl.training.replay import to_transitions
-
-    cfg = tiny()
-    env = FormationEnv(2, config=cfg.env, seed=0)
-    rollout = env.rollout(cfg.env.max_steps, break_when_any_done=False)
-    assert rollout["next", "truncated"][:, -1].all() and not rollout["next", "terminated"].any()
-    stored = to_transitions(rollout)
-    last = stored.reshape(2, -1)[:, -1]
-    assert last["next", "agents", "done"].all() and not last["next", "agents", "terminated"].any()
-    algo = Trainer(cfg, tmp_path).algo
-    batch = stored[:8].clone()
-    batch["next", "agents", "reward"].zero_()
-    with torch.no_grad():
-        target = algo.loss.value_estimator.value_estimate(
-            batch.set(("next", "agents", "state_action_value"), torch.ones_like(batch["next", "agents", "reward"])))
-    torch.testing.assert_close(target, torch.full_like(target, cfg.algo.gamma))  # r + gamma * (1 - terminated) * 1

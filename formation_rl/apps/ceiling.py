@@ -1,4 +1,4 @@
-"""What the obstacle sensing range allows a reactive team: ``python -m formation_rl.apps.ceiling [--out DIR]``.
+"""What the obstacle sensing range allows a reactive team: ``python -m formation_rl.apps.ceiling [overrides]``.
 
 A policy that acts on the SPEC §3 observation sees an obstacle only once its surface is within
 ``sensing_range`` (rho_d, 0.2 m by SPEC §1), and it collides 0.1 m later (rho_o). For each sensing
@@ -7,21 +7,24 @@ on training scenarios (seed 0), then evaluates the best gain set on the held-out
 ``make eval``, and reports the team's success with its parts and the leader's own share: the leader
 at the goal at the last step without touching an obstacle (it sees no other robot, so nothing the
 followers do can raise that share), also for the gain set that maximises that share. Writes
-``ceiling.json``, ``ceiling.md`` and ``ceiling.png`` into ``--out``.
+``ceiling.json``, ``ceiling.md`` and ``ceiling.png`` into ``out``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import random
-import sys
+from dataclasses import dataclass, field
 from pathlib import Path
 
+import hydra
 import torch
+from hydra.core.config_store import ConfigStore
+from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 
+from formation_rl.apps.cli import CONF, one_line_errors
 from formation_rl.envs import EnvConfig
 from formation_rl.evaluation.diagnose import failure_metrics
 from formation_rl.evaluation.evaluate import EVAL_SEED, evaluate_policy, mean_ci
@@ -40,6 +43,18 @@ SPACE = {
     "obstacle_brake": (0.1, 0.2, 0.3),
 }
 REPORTED = ("success", "leader_ok", "at_goal", "no_robot_collision", "no_obstacle_collision", "CBRO", "UDBLT", "RFSE")
+
+
+@dataclass
+class CeilingConfig:
+    ranges: list[float] = field(default_factory=lambda: [0.2, 0.3, 0.4, 0.6])  # sensing ranges rho_d tried (m)
+    trials: int = 40  # gain sets tried per range (the defaults first)
+    episodes: int = 500  # training scenarios (seed 0) per trial
+    held_out: int = 1000  # held-out episodes for each range's best gain set
+    out: str = "outputs/ceiling"  # where ceiling.json, ceiling.md and ceiling.png go
+
+
+ConfigStore.instance().store(name="ceiling_schema", node=CeilingConfig)
 
 
 def braking_limit(cfg: EnvConfig, corner: bool) -> float:
@@ -153,22 +168,19 @@ def plot(rows: list[dict], out: Path) -> Path:
     return path
 
 
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--ranges", type=float, nargs="+", default=[0.2, 0.3, 0.4, 0.6])
-    parser.add_argument("--trials", type=int, default=40, help="gain sets tried per range (the defaults first)")
-    parser.add_argument("--episodes", type=int, default=500, help="training scenarios (seed 0) per trial")
-    parser.add_argument("--held-out", type=int, default=1000, help="held-out episodes for each range's best")
-    parser.add_argument("--out", default="outputs/ceiling")
-    args = parser.parse_args(argv)
+def run(cfg: CeilingConfig) -> list[Path]:
+    """Search and evaluate each sensing range, print a line per range and the table; return the files written."""
     for name in ("trials", "episodes", "held_out"):
-        if getattr(args, name) < 1:
-            sys.exit(f"error: --{name.replace('_', '-')} = {getattr(args, name)} is invalid: must be >= 1")
-    bad = [r for r in args.ranges if r <= 0]
-    if bad:
-        sys.exit(f"error: --ranges = {bad[0]} is invalid: a sensing range must be > 0 m")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+        if getattr(cfg, name) < 1:
+            raise ValueError(f"{name} = {getattr(cfg, name)} is invalid: must be an integer >= 1")
+    bad = [r for r in cfg.ranges if r <= 0]
+    if not cfg.ranges or bad:
+        raise ValueError(f"ranges = {list(cfg.ranges)} is invalid: must be a non-empty list of sensing ranges > 0 m")
+    out = Path(cfg.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ValueError(f"out = {str(out)!r} is invalid: cannot write there: {err.strerror or err}") from None
     spec = EnvConfig()
     physics = {"braking_limit_axis": braking_limit(spec, corner=False),
                "braking_limit_corner": braking_limit(spec, corner=True),
@@ -183,13 +195,13 @@ def main(argv: list[str] | None = None) -> None:
     torch.set_num_threads(1)
     rng = random.Random(0)
     rows = []
-    for rho in args.ranges:
-        cfg = EnvConfig(sensing_range=rho)
-        best = search(cfg, args.trials, args.episodes, rng)
+    for rho in cfg.ranges:
+        world = EnvConfig(sensing_range=rho)
+        best = search(world, cfg.trials, cfg.episodes, rng)
         gains, train = best["success"]
-        held = score(cfg, gains, args.held_out, seed=EVAL_SEED)
+        held = score(world, gains, cfg.held_out, seed=EVAL_SEED)
         leader_gains = best["leader_ok"][0]
-        leader = score(cfg, leader_gains, args.held_out, seed=EVAL_SEED)
+        leader = score(world, leader_gains, cfg.held_out, seed=EVAL_SEED)
         rows.append({"sensing_range": rho, "gains": gains, "train": train, "held_out": held,
                      "leader_gains": leader_gains, "held_out_leader": leader})
         print(f"sensing {rho:.2f} m: success {100 * held['success']:.1f}% "
@@ -198,8 +210,8 @@ def main(argv: list[str] | None = None) -> None:
               f"no robot contact {100 * held['no_robot_collision']:.1f}%) with {gains or 'the default gains'}; "
               f"leader alone at best {100 * leader['leader_ok']:.1f}% with {leader_gains or 'the default gains'}",
               flush=True)
-    (out / "ceiling.json").write_text(json.dumps({"trials": args.trials, "episodes": args.episodes,
-                                                  "held_out": args.held_out, "physics": physics, "rows": rows},
+    (out / "ceiling.json").write_text(json.dumps({"trials": cfg.trials, "episodes": cfg.episodes,
+                                                  "held_out": cfg.held_out, "physics": physics, "rows": rows},
                                                  indent=2))
     lines = ["| sensing range (m) | success | leader at goal, no obstacle contact | leader at goal | "
              "no obstacle contact | no robot contact | CBRO (%) | UDBLT (m) | RFSE (m) | leader at goal, no obstacle "
@@ -214,8 +226,18 @@ def main(argv: list[str] | None = None) -> None:
                      f"{100 * lead['leader_ok']:.1f} ± {100 * lead['leader_ok_ci95']:.1f}% |")
     (out / "ceiling.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-    print(f"wrote {out / 'ceiling.json'}, {out / 'ceiling.md'} and {plot(rows, out)}")
+    return [out / "ceiling.json", out / "ceiling.md", plot(rows, out)]
+
+
+@hydra.main(config_path=str(CONF), config_name="ceiling", version_base=None)
+@one_line_errors
+def main(cfg: DictConfig) -> None:
+    written = run(OmegaConf.to_object(cfg))
+    print(f"wrote {', '.join(map(str, written[:-1]))} and {written[-1]}")
 
 
 if __name__ == "__main__":
+    from formation_rl.apps.cli import check_overrides
+
+    check_overrides(CeilingConfig, ())
     main()

@@ -10,9 +10,16 @@ from pathlib import Path
 
 from formation_rl.utils import check_device
 
-__all__ = ["CONF", "check_device", "check_overrides", "one_line_errors", "remove_unused_run_dir"]
+__all__ = ["CONF", "as_list", "check_device", "check_overrides", "one_line_errors", "remove_unused_run_dir"]
 
 CONF = Path(__file__).resolve().parent.parent / "conf"  # the Hydra configs, package data (pyproject.toml)
+
+
+def as_list(value) -> list[str]:
+    """One value or a list of them, as given on the command line (``ckpt=apf``, ``ckpt=[apf,run]``), as strings."""
+    if value is None:
+        return []
+    return [str(v) for v in value] if isinstance(value, list | tuple) else [str(value)]
 
 
 def one_line_errors(main: Callable) -> Callable:

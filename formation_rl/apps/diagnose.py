@@ -1,27 +1,40 @@
-"""Why episodes fail: ``python -m formation_rl.apps.diagnose CKPT [CKPT ...] [--out DIR]``.
+"""Why episodes fail: ``python -m formation_rl.apps.diagnose ckpt=PATH`` (or ``ckpt=[PATH,apf,...]`` to compare).
 
 On the held-out episodes of ``make eval`` (same seed, the checkpoint's own world), success (SPEC §6)
 is split into its three parts: the leader within ``rho_g`` of the goal at the last step, no
 robot-robot collision, no robot-obstacle collision; and each episode's first collision of either
 kind is timed. Prints a table per controller and writes ``failures.json`` and
-``first_collision.png`` (when the first collisions happen, one line per controller) into ``--out``.
+``first_collision.png`` (when the first collisions happen, one line per controller) into ``out``.
 """
 
 from __future__ import annotations
 
-import argparse
 import functools
 import json
-import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+import hydra
 import torch
+from hydra.core.config_store import ConfigStore
+from omegaconf import DictConfig, OmegaConf
 
+from formation_rl.apps.cli import CONF, as_list, one_line_errors
 from formation_rl.envs import EnvConfig
-from formation_rl.evaluation.diagnose import BINS, PARTS, breakdown, failure_metrics, first_step, last_step
+from formation_rl.evaluation.diagnose import BINS, breakdown, failure_metrics
 from formation_rl.evaluation.evaluate import EVAL_SEED, evaluate_policy
 
-__all__ = ["BINS", "PARTS", "breakdown", "failure_metrics", "first_step", "last_step", "format_rows", "main", "plot"]
+
+@dataclass
+class DiagnoseConfig:
+    ckpt: Any = None  # policy.pt, last.pt, a run directory or apf; or a list of them, diagnosed side by side
+    episodes: int = 1000  # held-out episodes per controller
+    seed: int = EVAL_SEED  # make eval's held-out scenarios
+    out: str = "outputs/diagnose"  # where failures.json and first_collision.png go
+
+
+ConfigStore.instance().store(name="diagnose_schema", node=DiagnoseConfig)
 
 
 def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path) -> Path:
@@ -64,38 +77,42 @@ def _edge(cfg: EnvConfig) -> float:
     return cfg.arena_half_size - cfg.robot_radius
 
 
-def main(argv: list[str] | None = None) -> int:
+def run(cfg: DiagnoseConfig) -> tuple[dict[str, dict[str, float]], list[Path]]:
+    """The breakdown of every controller in ``cfg.ckpt``, and the files written; bad input raises before any rollout."""
     from formation_rl.evaluation.policy import load_policy
 
-    parser = argparse.ArgumentParser(description="Split success into its parts and time the first collisions")
-    parser.add_argument("ckpts", nargs="+", help="policy.pt, last.pt, run directory or apf")
-    parser.add_argument("--episodes", type=int, default=1000, help="held-out episodes per controller (default 1000)")
-    parser.add_argument("--seed", type=int, default=EVAL_SEED, help="evaluation seed (default: make eval's)")
-    parser.add_argument("--out", default="outputs/diagnose", help="where failures.json and the figure go")
-    args = parser.parse_args(argv)
+    ckpts = as_list(cfg.ckpt)
+    if not ckpts:
+        raise ValueError(f"ckpt = {cfg.ckpt!r} is invalid: must be a policy.pt, last.pt, run directory or apf, or a "
+                         "list of them (make diagnose CKPT=...)")
+    if cfg.episodes < 1:
+        raise ValueError(f"episodes = {cfg.episodes} is invalid: must be an integer >= 1")
+    policies = {c: load_policy(c) for c in ckpts}  # every path checked before any rollout
+    results = {c: evaluate_policy(p.module, p.env_config, cfg.episodes, 1000, cfg.seed, "cpu",
+                                  metrics=functools.partial(failure_metrics, edge=_edge(p.env_config)))
+               for c, p in policies.items()}
+    out = Path(cfg.out)
+    rows = {c: breakdown(r) for c, r in results.items()}
     try:
-        if args.episodes < 1:
-            raise ValueError(f"--episodes = {args.episodes} is invalid: must be an integer >= 1")
-        policies = {c: load_policy(c) for c in args.ckpts}  # every path checked before any rollout
-        results = {c: evaluate_policy(p.module, p.env_config, args.episodes, 1000, args.seed, "cpu",
-                                      metrics=functools.partial(failure_metrics, edge=_edge(p.env_config)))
-                   for c, p in policies.items()}
-        out = Path(args.out)
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-            rows = {c: breakdown(r) for c, r in results.items()}
-            (out / "failures.json").write_text(json.dumps({"episodes": args.episodes, "seed": args.seed,
-                                                           "controllers": rows}, indent=2))
-            fig = plot(results, max(p.env_config.max_steps for p in policies.values()), out)
-        except OSError as err:
-            raise ValueError(f"cannot write to --out {out}: {err.strerror or err}") from None
-    except ValueError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "failures.json").write_text(json.dumps({"episodes": cfg.episodes, "seed": cfg.seed,
+                                                       "controllers": rows}, indent=2))
+        fig = plot(results, max(p.env_config.max_steps for p in policies.values()), out)
+    except OSError as err:
+        raise ValueError(f"out = {str(out)!r} is invalid: cannot write there: {err.strerror or err}") from None
+    return rows, [out / "failures.json", fig]
+
+
+@hydra.main(config_path=str(CONF), config_name="diagnose", version_base=None)
+@one_line_errors
+def main(cfg: DictConfig) -> None:
+    rows, written = run(OmegaConf.to_object(cfg))
     print("\n".join(format_rows(c, b) for c, b in rows.items()))
-    print(f"wrote {out / 'failures.json'} and {fig}")
-    return 0
+    print(f"wrote {' and '.join(map(str, written))}")
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from formation_rl.apps.cli import check_overrides
+
+    check_overrides(DiagnoseConfig, ())
+    main()

@@ -1,6 +1,6 @@
 """Compare runs: the paper's Figures 6-9 and Table 1 from TensorBoard events and final evaluations.
 
-    python -m formation_rl.apps.report RUN_OR_SWEEP_DIR [...] [--by algo.name] [--out DIR] [--smooth 0.9]
+    python -m formation_rl.apps.report runs=[RUN_OR_SWEEP_DIR,...] [by=algo.name] [out=DIR] [smooth=0.9]
 
 Each run directory (Hydra's, with ``.hydra/config.yaml`` and ``tb/``) is grouped by a config key;
 curves are the mean over the group's seeds with a shaded min-max spread, smoothed; Table 1 takes
@@ -16,13 +16,13 @@ read from what it records), and no figure. So the table can be rebuilt from the 
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
+import hydra
 import matplotlib
 
 matplotlib.use("Agg")
@@ -30,7 +30,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 import yaml  # noqa: E402
+from hydra.core.config_store import ConfigStore  # noqa: E402
+from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
+from formation_rl.apps.cli import CONF, as_list, one_line_errors  # noqa: E402
 from formation_rl.evaluation.evaluate import mean_ci  # noqa: E402
 
 # the paper's Table 1 (CBRO %, UDBLT m, RFSE m)
@@ -53,6 +56,17 @@ THRESHOLDS = {
 
 
 @dataclass
+class ReportConfig:
+    runs: Any = None  # run directories, directories holding them (a sweep) or kept evaluations; one or a list
+    by: str = "algo.name"  # the config key runs are grouped by
+    out: str | None = None  # where figures and tables go (default: the first of `runs`)
+    smooth: float = 0.8  # TensorBoard's EMA weight for the curves, in [0, 1)
+
+
+ConfigStore.instance().store(name="report_schema", node=ReportConfig)
+
+
+@dataclass
 class Run:
     path: Path
     config: dict
@@ -66,7 +80,7 @@ def find_runs(paths: list[str]) -> list[Path]:
     runs: list[Path] = []
     for p in map(Path, paths):
         if not p.exists():
-            raise ValueError(f"runs: {str(p)!r} does not exist")
+            raise ValueError(f"runs = {str(p)!r} is invalid: no such directory")
         if (p / ".hydra").is_dir() or _evaluation(p) is not None:
             candidates = [p]
         else:
@@ -77,8 +91,8 @@ def find_runs(paths: list[str]) -> list[Path]:
     trained = [r for r in runs if (r / ".hydra").is_dir()]
     runs = [r for r in runs if (r / ".hydra").is_dir() or not any(t in r.parents for t in trained)]
     if not runs:
-        raise ValueError(f"runs: no training run (a directory with .hydra/config.yaml and tb/) and no evaluation "
-                         f"(a metrics.json written by make eval) under {paths}")
+        raise ValueError(f"runs = {paths} is invalid: no training run (a directory with .hydra/config.yaml and tb/) "
+                         "and no evaluation (a metrics.json written by make eval) under them")
     return list(dict.fromkeys(runs))
 
 
@@ -163,7 +177,7 @@ def group_key(run: Run, by: str) -> str:
     node = run.config
     for part in by.split("."):
         if not isinstance(node, dict) or part not in node:
-            raise ValueError(f"--by {by!r} is invalid: run {run.path} has no config key {by!r}")
+            raise ValueError(f"by = {by!r} is invalid: run {run.path} has no config key {by!r}")
         node = node[part]
     # a name stands for itself (per_matd3, hybrid); a number or a flag needs its key (batch_size=256)
     return node if isinstance(node, str) else f"{by.rsplit('.', 1)[-1]}={node}"
@@ -297,45 +311,50 @@ def plot_time_to_quality(groups: dict[str, list[Run]], out: Path) -> Path | None
     return out / "time_to_quality.png"
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Figures 6-9 and Table 1 from training runs")
-    parser.add_argument("runs", nargs="+", help="run directories or directories holding them (a sweep)")
-    parser.add_argument("--by", default="algo.name", help="config key to group runs by (default algo.name)")
-    parser.add_argument("--out", default=None, help="output directory (default: the first RUNS argument)")
-    parser.add_argument("--smooth", type=float, default=0.8, help="EMA weight in [0, 1) (default 0.8)")
-    args = parser.parse_args(argv)
+def run(cfg: ReportConfig) -> list[Path]:
+    """Figures, Table 1 and the time-to-quality table of ``cfg.runs``; the files written (tables last)."""
+    paths = as_list(cfg.runs)
+    if not paths:
+        raise ValueError(f"runs = {cfg.runs!r} is invalid: must be run directories or directories holding them "
+                         "(make compare RUNS=...)")
+    if not 0 <= cfg.smooth < 1:
+        raise ValueError(f"smooth = {cfg.smooth} is invalid: must be in [0, 1)")
+    runs = attach_evaluations([load_run(p) for p in find_runs(paths)])
+    sizes = {r.config.get("env", {}).get("num_robots") for r in runs}
+    if len(sizes) > 1 and cfg.by != "env.num_robots":
+        raise ValueError(f"runs mix team sizes {sorted(sizes)}: compare one N at a time (or by=env.num_robots)")
+    groups: dict[str, list[Run]] = {}
+    for r in runs:
+        groups.setdefault(group_key(r, cfg.by), []).append(r)
+    out = Path(cfg.out or paths[0])
     try:
-        if not 0 <= args.smooth < 1:
-            raise ValueError(f"--smooth = {args.smooth} is invalid: must be in [0, 1)")
-        runs = attach_evaluations([load_run(p) for p in find_runs(args.runs)])
-        sizes = {r.config.get("env", {}).get("num_robots") for r in runs}
-        if len(sizes) > 1 and args.by != "env.num_robots":
-            raise ValueError(f"runs mix team sizes {sorted(sizes)}: compare one N at a time (or --by env.num_robots)")
-        groups: dict[str, list[Run]] = {}
-        for r in runs:
-            groups.setdefault(group_key(r, args.by), []).append(r)
-        out = Path(args.out or args.runs[0])
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-            trained = [r for r in runs if (r.path / ".hydra").is_dir()]
-            figs = plot_figures(groups, out, args.smooth) if trained else []
-            if trained and not figs:
-                raise ValueError(f"runs: none of {len(trained)} training run(s) has train/* curves in tb/ "
-                                 "(formation_rl runs?)")
-            md, cs = write_table(table(groups), out)
-            ttq = write_time_to_quality(groups, out) if trained else None
-            figs += [f for f in [plot_time_to_quality(groups, out)] if f is not None]
-        except OSError as err:
-            raise ValueError(f"cannot write the report to {out}: {err.strerror or err}") from None
-    except ValueError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    print(md.read_text())
-    if ttq is not None:
-        print(ttq.read_text())
-    print("wrote " + ", ".join(str(p) for p in [*figs, md, cs, *([ttq] if ttq else [])]))
-    return 0
+        out.mkdir(parents=True, exist_ok=True)
+        trained = [r for r in runs if (r.path / ".hydra").is_dir()]
+        figs = plot_figures(groups, out, cfg.smooth) if trained else []
+        if trained and not figs:
+            raise ValueError(f"runs = {paths} is invalid: none of {len(trained)} training run(s) has train/* curves "
+                             "in tb/ (formation_rl runs?)")
+        tables = list(write_table(table(groups), out))
+        if trained:
+            tables.append(write_time_to_quality(groups, out))
+        figs += [f for f in [plot_time_to_quality(groups, out)] if f is not None]
+    except OSError as err:
+        reason = err.strerror or err
+        raise ValueError(f"out = {str(out)!r} is invalid: cannot write the report there: {reason}") from None
+    return [*figs, *tables]
+
+
+@hydra.main(config_path=str(CONF), config_name="report", version_base=None)
+@one_line_errors
+def main(cfg: DictConfig) -> None:
+    written = run(OmegaConf.to_object(cfg))
+    for md in (p for p in written if p.suffix == ".md"):
+        print(md.read_text())
+    print("wrote " + ", ".join(map(str, written)))
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from formation_rl.apps.cli import check_overrides
+
+    check_overrides(ReportConfig, ())
+    main()

@@ -16,7 +16,7 @@ from omegaconf import DictConfig
 
 from formation_rl.apps.cli import CONF, one_line_errors
 from formation_rl.training.config import register
-from formation_rl.training.trainer import Trainer
+from formation_rl.training.trainer import Trainer, to_train_config
 
 register()
 log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/job_logging/plain.yaml)
@@ -26,7 +26,7 @@ log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/
 @one_line_errors
 def main(cfg: DictConfig) -> float:
     run_dir = Path(HydraConfig.get().runtime.output_dir)
-    trainer = Trainer(cfg, run_dir)
+    trainer = Trainer(to_train_config(cfg), run_dir)
     if cfg.resume:
         trainer.load_checkpoint(cfg.resume)
     metrics = trainer.train()

@@ -1,4 +1,4 @@
-"""A classical, non-learned reference controller, ``algo=apf``: the bar for what learning buys.
+"""A classical, non-learned reference controller, ``apf`` (``make eval CKPT=apf``): the bar for what learning buys.
 
 Each robot acts on its own SPEC §3 observation only (the information a learned actor has, so the
 comparison is fair, decentralized execution included):

@@ -36,7 +36,7 @@ class TrainConfig:
     eval_episodes: int = 100  # held-out episodes per evaluation, run as that many batched copies
     eval_seed: int = 1_000_000_007  # scenario seed of the evaluation set, disjoint from training seeds
     checkpoint_interval: int = 100_000  # frames between checkpoints (and at the end)
-    save_buffer: bool = False  # also checkpoint the replay buffer (large: ~1 kB per frame)
+    save_buffer: bool = False  # also checkpoint the replay buffer, inside last.pt (large: ~1 kB per frame)
     resume: str | None = None  # a checkpoint file or run directory to continue from; "auto": this run's
     progress: bool = True  # progress bar
     threads: int | None = None  # torch intra-op threads (None: torch's default; sweeps set 1 per job)
@@ -57,9 +57,6 @@ def validate(cfg: TrainConfig) -> None:
         if not ok:
             raise ValueError(f"{name} = {value!r} is invalid: must be {allowed}")
 
-    if a.name == "apf":
-        raise ValueError("algo.name = 'apf' is invalid for training: apf is the classical controller and learns "
-                         "nothing; evaluate it with `make eval CKPT=apf` (render: `make render CKPT=apf`)")
     check(a.name in ALGORITHMS, "algo.name", a.name, f"one of {', '.join(ALGORITHMS)}")
     check(a.num_critics in (1, 2), "algo.num_critics", a.num_critics, "1 or 2")
     for name in ("lr_actor", "lr_critic"):

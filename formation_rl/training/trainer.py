@@ -1,7 +1,8 @@
 """The training loop: collect -> extend -> sample -> losses -> optimisers -> soft update -> priorities -> log.
 
 One :class:`Trainer` per run directory; ``train()`` runs to ``total_frames``, evaluating and
-checkpointing on the way. Everything a resume needs is in ``checkpoints/last.pt``.
+checkpointing on the way. Everything a resume needs is one :meth:`Trainer.state_dict`, saved as
+``checkpoints/last.pt``.
 """
 
 from __future__ import annotations
@@ -28,16 +29,12 @@ from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, NonFiniteError, ma
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
 from formation_rl.models import make_actor, make_critic, set_precision
-from formation_rl.models.controller import residual_base
+from formation_rl.models.controller import APFController, residual_base
 from formation_rl.training.checkpoint import (
-    _COMPLETE,
-    BUFFER_DIR,
     CHECKPOINT,
     FORMAT,
     POLICY,
     atomic_save,
-    buffer_dump_to_load,
-    dump_buffer,
     load_checkpoint_file,
     resolve_checkpoint,
 )
@@ -46,13 +43,9 @@ from formation_rl.training.replay import make_replay_buffer, to_transitions
 from formation_rl.training.timing import Timings
 
 
-def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
-    """A typed ``TrainConfig`` from Hydra's config (or a plain dict); the env part validated."""
-    if isinstance(cfg, TrainConfig):
-        return cfg
-    if isinstance(cfg, DictConfig):
-        cfg = OmegaConf.to_container(cfg, resolve=True)
-    cfg = dict(cfg)
+def to_train_config(cfg: DictConfig) -> TrainConfig:
+    """The typed ``TrainConfig`` of Hydra's composed config (``EnvConfig.from_dict`` builds the world's part)."""
+    cfg = OmegaConf.to_container(cfg, resolve=True)
     out = TrainConfig(**{k: v for k, v in cfg.items() if k not in ("env", "algo", "model")})
     out.env = EnvConfig.from_dict(cfg.get("env", {}))
     out.algo = dataclasses.replace(out.algo, **cfg.get("algo", {}))
@@ -61,8 +54,7 @@ def to_train_config(cfg: TrainConfig | DictConfig | dict) -> TrainConfig:
 
 
 class Trainer:
-    def __init__(self, cfg: TrainConfig | DictConfig | dict, run_dir: str | Path):
-        cfg = to_train_config(cfg)
+    def __init__(self, cfg: TrainConfig, run_dir: str | Path):
         validate(cfg)
         cfg.env.validate()
         self.cfg, self.run_dir = cfg, Path(run_dir)
@@ -84,8 +76,6 @@ class Trainer:
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
         if a.bc_weight > 0:  # the classical controller anchors the actor loss
-            from formation_rl.models.controller import APFController
-
             self.algo.anchor = APFController(cfg.env).to(dev)
         if cfg.cudagraphs:
             self.algo.enable_cudagraphs()
@@ -251,35 +241,25 @@ class Trainer:
         return out
 
     # ------------------------------------------------------------------ checkpoints
-    def save_checkpoint(self) -> Path:
-        """Everything needed to resume, written atomically; plus a small policy-only file."""
-        cfg_dict = dataclasses.asdict(self.cfg)
-        state = {
+    def state_dict(self) -> dict:
+        """Everything a resume needs: actors, critics and their targets, optimisers and step counts, the
+        exploration noise's schedule, the frame and episode counters, every random generator (the training
+        world's scenario generator too) and, with ``save_buffer``, the replay buffer with its priorities."""
+        return {
             "format": FORMAT,
             "version": formation_rl.__version__,
-            "config": cfg_dict,
+            "config": dataclasses.asdict(self.cfg),
             "algo": self.algo.state_dict(),
             "noise": self.noise.state_dict(),
             "counters": {"frames": self.frames, "episodes": self.episodes, "next_eval": self.next_eval,
                          "next_checkpoint": self.next_checkpoint},
             "rng": {**_rng_state(), "env": self.env.rng_state()},
+            "buffer": self.buffer.state_dict() if self.cfg.save_buffer else None,
         }
-        path = self.run_dir / CHECKPOINT
-        with self.timings("checkpoint"):
-            if self.cfg.save_buffer:  # first: a crash before last.pt leaves a buffer newer than the counters, no worse
-                dump_buffer(self.buffer, path.parent / BUFFER_DIR)
-            atomic_save(state, path)
-            atomic_save(self.policy_state(), self.run_dir / POLICY)
-        return path
 
-    def policy_state(self) -> dict:
-        return {"format": FORMAT, "version": formation_rl.__version__, "algo": self.cfg.algo.name,
-                "env": dataclasses.asdict(self.cfg.env), "model": dataclasses.asdict(self.cfg.model),
-                "actor": self.actor.state_dict()}
-
-    def load_checkpoint(self, path: str | Path) -> None:
-        path = resolve_checkpoint(path, self.run_dir)
-        state = load_checkpoint_file(path)
+    def load_state_dict(self, state: dict) -> None:
+        """Continue from a :meth:`state_dict`; the algorithm, team and network sizes must be this run's. The
+        random generators are restored now, and ``train()`` starts from them."""
         saved = state["config"]
         for name, now, then in (
             ("algo.name", self.cfg.algo.name, saved["algo"]["name"]),
@@ -288,22 +268,46 @@ class Trainer:
             ("model.hidden", list(self.cfg.model.hidden), list(saved["model"]["hidden"])),
         ):
             if now != then:
-                raise ValueError(f"resume: {name} = {now!r} but the checkpoint {path} has {then!r}; they must match")
+                raise ValueError(f"resume: {name} = {now!r} but the checkpoint has {then!r}; they must match")
         self.algo.load_state_dict(state["algo"])
         self.noise.load_state_dict(state["noise"])
         c = state["counters"]
         self.frames, self.episodes = c["frames"], c["episodes"]
         self.next_eval, self.next_checkpoint = c["next_eval"], c["next_checkpoint"]
         self._resumed_frames = self.frames
-        self._rng = state["rng"]
         self.env.set_rng_state(state["rng"]["env"])
-        dump = buffer_dump_to_load(path.parent / BUFFER_DIR) if self.cfg.save_buffer else None
-        if dump is not None:
-            self.buffer.loads(dump)
-        elif self.cfg.save_buffer and (path.parent / BUFFER_DIR).exists():
-            warnings.warn(f"resume: the replay buffer dump {path.parent / BUFFER_DIR} has no {_COMPLETE} marker "
-                          "(cut short, or written by an older formation_rl): the buffer starts empty and refills",
+        self._rng = state["rng"]
+        _set_rng_state(self._rng)
+        if state.get("buffer") is not None:
+            self.buffer.load_state_dict(state["buffer"])
+        elif self.cfg.save_buffer:
+            warnings.warn("resume: the checkpoint holds no replay buffer (saved with save_buffer=false, or by a "
+                          "formation_rl that kept it in checkpoints/buffer/): the buffer starts empty and refills",
                           stacklevel=2)
+
+    def save_checkpoint(self) -> Path:
+        """:meth:`state_dict` to ``checkpoints/last.pt`` and the actors alone to ``checkpoints/policy.pt``, each
+        written atomically (a crash leaves the previous file)."""
+        path = self.run_dir / CHECKPOINT
+        with self.timings("checkpoint"):
+            atomic_save(self.state_dict(), path)
+            atomic_save(self.policy_state(), self.run_dir / POLICY)
+        return path
+
+    def load_checkpoint(self, path: str | Path) -> None:
+        """Resume from a ``last.pt``, a run directory, or ``auto`` (this run's own ``last.pt``)."""
+        path = resolve_checkpoint(path, self.run_dir)
+        state = load_checkpoint_file(path)  # its errors name the file already
+        try:
+            self.load_state_dict(state)
+        except ValueError as err:
+            raise ValueError(f"{err} ({path})") from None
+
+    def policy_state(self) -> dict:
+        """What :func:`formation_rl.load_policy` reads: the actors, their world and network config."""
+        return {"format": FORMAT, "version": formation_rl.__version__, "algo": self.cfg.algo.name,
+                "env": dataclasses.asdict(self.cfg.env), "model": dataclasses.asdict(self.cfg.model),
+                "actor": self.actor.state_dict()}
 
     @staticmethod
     def _seed_everything(seed: int) -> None:

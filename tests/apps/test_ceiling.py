@@ -24,8 +24,9 @@ def test_leader_share_bounds_team_success_per_episode():
 
 
 def test_ceiling_writes_table_json_and_figure(tmp_path):
-    ceiling.main(["--ranges", "0.2", "0.4", "--trials", "2", "--episodes", "20", "--held-out", "20",
-                  "--out", str(tmp_path)])
+    cfg = ceiling.CeilingConfig(ranges=[0.2, 0.4], trials=2, episodes=20, held_out=20, out=str(tmp_path))
+    written = ceiling.run(cfg)
+    assert written == [tmp_path / "ceiling.json", tmp_path / "ceiling.md", tmp_path / "ceiling.png"]
     rows = json.loads((tmp_path / "ceiling.json").read_text())["rows"]
     assert [r["sensing_range"] for r in rows] == [0.2, 0.4]
     for r in rows:
@@ -35,11 +36,16 @@ def test_ceiling_writes_table_json_and_figure(tmp_path):
     assert (tmp_path / "ceiling.md").read_text().count("\n") == 4
 
 
-@pytest.mark.parametrize("args, field", [(["--trials", "0"], "--trials"), (["--ranges", "0.2", "-1"], "--ranges")])
-def test_ceiling_bad_input_is_one_line(args, field, tmp_path, capsys):
-    with pytest.raises(SystemExit) as err:
-        ceiling.main([*args, "--out", str(tmp_path / "x")])
-    assert field in str(err.value) and "\n" not in str(err.value)
+@pytest.mark.parametrize("change, message", [
+    ({"trials": 0}, "trials = 0 is invalid: must be an integer >= 1"),
+    ({"held_out": -3}, "held_out = -3 is invalid: must be an integer >= 1"),
+    ({"ranges": [0.2, -1.0]}, "ranges = [0.2, -1.0] is invalid: must be a non-empty list of sensing ranges > 0 m"),
+    ({"ranges": []}, "ranges = [] is invalid: must be a non-empty list of sensing ranges > 0 m"),
+])
+def test_ceiling_bad_input_is_one_error_before_any_search(change, message, tmp_path):
+    with pytest.raises(ValueError) as err:
+        ceiling.run(ceiling.CeilingConfig(**change, out=str(tmp_path / "x")))
+    assert str(err.value) == message
     assert not (tmp_path / "x").exists()
 
 

@@ -100,6 +100,16 @@ def test_auto_reset_in_rollout():
     assert r["state", "velocities"][:, 10].abs().sum() == 0
 
 
+def test_an_episode_ends_by_truncation_only():
+    """After max_steps the episode is done and truncated, never terminated (SPEC §1), collisions or not: its
+    last transition keeps the bootstrap from the next observation (the replay side: tests/training/test_replay.py)."""
+    env = FormationEnv(16, config=EnvConfig(max_steps=12), seed=0)
+    nxt = env.rollout(12, break_when_any_done=False)["next"]
+    assert nxt["robot_collision"].any()  # random actions collide, and that ends nothing
+    assert nxt["done"][:, -1].all() and nxt["truncated"][:, -1].all() and not nxt["terminated"].any()
+    assert not nxt["done"][:, :-1].any() and not nxt["truncated"][:, :-1].any()
+
+
 def test_seeding_reproduces_scenarios():
     a, b = FormationEnv(16, seed=7), FormationEnv(16, seed=7)
     ra, rb = a.reset(), b.reset()
