@@ -52,6 +52,9 @@ class RewardConfig:
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
     scale: float = 1.0  # every reward (guided and sparse) times this
+    own_progress: bool = False  # follower_progress counts the follower's own move only: its error with the others
+    #                             where they are now, from where it was to where it is (a difference reward, ours);
+    #                             false: the change of its error, whoever moved
     leader_robot_collision: float = 1.0  # the leader's share of R5 (ours; 1: the paper). 0: followers alone answer
     #                                      for robot contacts, and a contact leaves the leader's guided term in place
 
@@ -176,6 +179,7 @@ class EnvConfig:
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")
+        _check(r.own_progress, "reward.own_progress", lambda v: isinstance(v, bool), "true or false")
         _check(r.leader_robot_collision, "reward.leader_robot_collision", lambda v: _finite(v) and 0 <= v <= 1,
                "a number in [0, 1]")
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")

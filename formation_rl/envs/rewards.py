@@ -47,6 +47,12 @@ def _pairwise_distances(pos: torch.Tensor) -> torch.Tensor:
     return torch.addcmul(dx * dx, dy, dy).sqrt_()
 
 
+def _cross_distances(rows: torch.Tensor, cols: torch.Tensor) -> torch.Tensor:
+    """Distances ``[N, N, B]`` from each robot of ``rows`` to each of ``cols`` (batch-last ``[2, N, B]``)."""
+    dx, dy = rows[0][:, None] - cols[0][None], rows[1][:, None] - cols[1][None]
+    return torch.addcmul(dx * dx, dy, dy).sqrt_()
+
+
 def _norm(v: torch.Tensor) -> torch.Tensor:
     """Length ``[B]`` of batch-last vectors ``[2, B]``."""
     return torch.addcmul(v[0] * v[0], v[1], v[1]).sqrt_()
@@ -90,7 +96,9 @@ def step_quantities(
     formation_error = (err * geom.pairs).sum((1, 2))  # [F, B]
     progress = prev_pos is not None and (rw.leader_progress != 0 or rw.follower_progress != 0)
     if progress:  # the same errors one step earlier, under the formations of now
-        prev_follower_err = ((_pairwise_distances(prev_pos)[None] - geom.dstar).abs_() * geom.own).sum(2)
+        # own_progress: robot i back where it was, the others where they are now (its own move's credit)
+        before = _cross_distances(prev_pos, pos) if rw.own_progress else _pairwise_distances(prev_pos)
+        prev_follower_err = ((before[None] - geom.dstar).abs_() * geom.own).sum(2)
         prev_goal_dist = _norm(prev_pos[:, 0] - goal)
     if err.shape[0] == 2:  # hybrid: the area formation is active while the leader is inside
         area = in_area

@@ -236,3 +236,35 @@ def test_leader_robot_collision_share():
         bad = EnvConfig()
         bad.reward = RewardConfig(leader_robot_collision=2)
         bad.validate()
+
+
+def test_own_progress_credits_a_follower_with_its_own_move_only():
+    """reward.own_progress: follower i's progress is e_i(its previous position, the others now) - e_i(now):
+    a follower that stands still earns nothing when the others move, whichever way they go."""
+    cfg = EnvConfig(num_obstacles=1)
+    cfg.reward = RewardConfig(leader_distance=0.0, follower_error=0.0, leader_progress=1.0, follower_progress=1.0,
+                              own_progress=True)
+    env = FormationEnv(1, config=cfg, seed=0)
+    start = np.array(v_slots((-1.0, 3.0)))
+    start[1] += [0.0, 0.3]  # L1 off its slot
+    vel = np.zeros((5, 2))
+    vel[0] = [0.5, 0.0]  # the leader moves; L2 drifts; R1 moves back toward the V; L1 stands still
+    vel[3] = [0.0, 0.5]
+    vel[2] = [0.3, 0.3]
+    env.set_world_state(positions=[start.tolist()], velocities=[vel.tolist()], goal=[(3.2, 3.2)],
+                        obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
+    nxt = env.step(TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1]))["next"]
+    r = nxt["agents", "reward"][0, :, 0].double().numpy()
+    pos = nxt["state", "positions"][0].double().numpy()
+    unit = cfg.max_speed * cfg.dt
+
+    def error(p, i):
+        d = np.linalg.norm(p[:, None] - p[None], axis=-1)
+        return np.abs(d[i] - v_dstar()[i]).sum()
+
+    assert r[1] == pytest.approx(0.0, abs=1e-5)  # L1 did not move: no credit, though its error changed
+    assert error(pos, 1) != pytest.approx(error(start, 1), abs=1e-3)
+    for i in (2, 3):  # a follower that moved: its error from its old place to its new one, the others fixed
+        own_prev = pos.copy()
+        own_prev[i] = start[i]
+        assert r[i] == pytest.approx((error(own_prev, i) - error(pos, i)) / unit, abs=1e-4)
