@@ -41,6 +41,7 @@ class FormationEnv(EnvBase):
         seed: int | None = None,
         compile_physics: bool = False,
         start_anywhere: float = 0.0,
+        start_team: bool = False,
     ):
         if not isinstance(num_envs, int) or isinstance(num_envs, bool) or num_envs < 1:
             raise ValueError(f"num_envs = {num_envs!r} is invalid: must be an integer >= 1")
@@ -49,6 +50,7 @@ class FormationEnv(EnvBase):
         if not (isinstance(start_anywhere, int | float) and 0 <= start_anywhere <= 1):
             raise ValueError(f"start_anywhere = {start_anywhere!r} is invalid: must be a number in [0, 1]")
         self.start_anywhere = float(start_anywhere)
+        self.start_team = bool(start_team)  # those starts move the whole start square, not each robot
         super().__init__(device=device, batch_size=torch.Size([num_envs]))
         self.config = cfg
         self.num_envs = b = num_envs
@@ -64,7 +66,8 @@ class FormationEnv(EnvBase):
         self._world: dict[str, torch.Tensor] = {}
         self._fixed: dict[str, torch.Tensor] = {}  # goal and obstacles, batch-first, as reported
         self._steps = torch.zeros(b, dtype=torch.int64, device=self.device)
-        self._place(None, world.sample_scenarios(b, cfg, self._generator, self.device, self.start_anywhere))
+        self._place(None, world.sample_scenarios(b, cfg, self._generator, self.device, self.start_anywhere,
+                                                            self.start_team))
 
     # ------------------------------------------------------------------ specs
     def _make_specs(self, b: int, n: int, m: int, d: int) -> None:
@@ -179,7 +182,7 @@ class FormationEnv(EnvBase):
         count = self.num_envs if idx is None else idx.numel()
         if count:
             self._place(idx, world.sample_scenarios(count, self.config, self._generator, self.device,
-                                                          self.start_anywhere))
+                                                          self.start_anywhere, self.start_team))
         out = self._observe(rewards=False)
         done = torch.zeros(self.num_envs, 1, dtype=torch.bool, device=self.device)
         out.set("done", done)

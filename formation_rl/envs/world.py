@@ -77,17 +77,21 @@ def place_discs(
 
 
 def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device,
-                     anywhere: float = 0.0) -> dict[str, torch.Tensor]:
+                     anywhere: float = 0.0, team: bool = False) -> dict[str, torch.Tensor]:
     """Goal, obstacles and start positions for ``n`` fresh episodes (SPEC §1).
 
     ``anywhere``: the share of episodes whose robots start anywhere in the arena instead of the SPEC's
     start square (each robot uniform, clear of the others and of obstacles): exploring starts for
-    training only (``FormationEnv(start_anywhere=...)``); 0 is the SPEC's world.
+    training only (``FormationEnv(start_anywhere=...)``); 0 is the SPEC's world. ``team``: those
+    episodes keep the start square's size and move it, team and all, anywhere in the arena.
     """
     k = CANDIDATES
     (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
     inner = cfg.arena_half_size - cfg.robot_radius
     spread = torch.rand(n, generator=gen, device=device) < anywhere if anywhere > 0 else None
+    if spread is not None and team:  # the square's lower corner, uniform where the square fits in the arena
+        side = cfg.start_high - cfg.start_low
+        corner = _uniform((n, 1, 2), -inner, inner - side, gen, device) - cfg.start_low
 
     def obstacle(pending: torch.Tensor):
         p = pending.numel()
@@ -109,11 +113,18 @@ def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device,
     # clear of obstacle collision at t = 0 (choice: the SPEC's start square may touch an obstacle)
     exclusion = cfg.robot_radius + cfg.robot_collision_margin / 2
 
+    calls = [0]
+
     def robot(pending: torch.Tensor):
         p = pending.numel()
+        if spread is not None and team and calls[0] and calls[0] % cfg.num_robots == 0:
+            # a new round of place_discs (one call per robot): copies that jammed get a new square
+            corner[pending] = _uniform((p, 1, 2), -inner, inner - side, gen, device) - cfg.start_low
+        calls[0] += 1
         c = _uniform((p, k, 2), cfg.start_low, cfg.start_high, gen, device)
         if spread is not None:
-            c = torch.where(spread[pending, None, None], _uniform((p, k, 2), -inner, inner, gen, device), c)
+            moved = c + corner[pending] if team else _uniform((p, k, 2), -inner, inner, gen, device)
+            c = torch.where(spread[pending, None, None], moved, c)
         return c, torch.full((p, k), exclusion, device=device)
 
     clearance = cfg.robot_collision_margin / 2 + cfg.obstacle_collision_margin  # |p-c| - R >= r + rho_o

@@ -26,6 +26,8 @@ class TrainConfig:
     seed: int = 0  # training seed: networks, exploration and training scenarios
     start_anywhere: float = 0.0  # share of training episodes whose robots start anywhere in the arena (exploring
     #                              starts, ours); evaluation always starts in the SPEC's square
+    start_team: bool = False  # those starts move the start square, team and all, anywhere in the arena; false: each
+    #                           robot anywhere on its own (ours)
     total_frames: int = 300_000  # frames = transitions of one env copy (SPEC §5); paper: 9,000,000
     num_envs: int = 64  # env copies stepped together by the collector
     steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames

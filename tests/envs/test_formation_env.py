@@ -240,3 +240,21 @@ def test_actions_that_require_grad_are_detached_by_the_step():
     graded = FormationEnv(3, config=EnvConfig(max_steps=10), seed=4).rollout(10, policy)
     assert graded["agents", "action"].requires_grad and not graded["next", "state", "positions"].requires_grad
     torch.testing.assert_close(graded["next", "state", "positions"], plain["next", "state", "positions"])
+
+
+def test_start_team_moves_the_start_square_with_the_team():
+    """start_team=True: spread episodes keep the team inside a start-square-sized box, moved anywhere."""
+    cfg = EnvConfig()
+    env = FormationEnv(256, config=cfg, seed=0, start_anywhere=1.0, start_team=True)
+    pos = env.reset()["state", "positions"]  # [B, N, 2]
+    side = cfg.start_high - cfg.start_low
+    extent = pos.amax(1) - pos.amin(1)  # [B, 2]: the team's bounding box
+    assert (extent <= side + 1e-5).all()
+    low = pos.amin(1)
+    assert low.std(0).min() > 1.0  # the boxes are spread over the arena, not in the SPEC's corner
+    assert pos.abs().max() <= cfg.arena_half_size - cfg.robot_radius
+    d = torch.cdist(pos, pos) + torch.eye(cfg.num_robots) * 10
+    assert d.min() >= 2 * cfg.robot_radius + cfg.robot_collision_margin - 1e-6
+    assert not env.reset()["obstacle_collision"].any()
+    single = FormationEnv(256, config=cfg, seed=0, start_anywhere=1.0).reset()["state", "positions"]
+    assert ((single.amax(1) - single.amin(1)) > side + 1e-5).any()  # without it, robots spread apart
