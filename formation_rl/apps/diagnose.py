@@ -70,7 +70,9 @@ def format_rows(name: str, b: dict[str, float]) -> str:
             f"  first robot-robot collision by step: {windows}\n"
             f"  robot-robot collisions only in the first 20 steps: {100 * b['robot_collision_only_in_first_20']:.1f}%\n"
             f"  leader ends at a wall: {100 * b['leader_at_wall']:.1f}%; saturated action components (|a| > 0.99): "
-            f"{100 * b['saturated_actions']:.1f}%")
+            f"{100 * b['saturated_actions']:.1f}%\n"
+            f"  followers' distance to the leader at the end: {b['follower_distance_end']:.2f} m; steps with the "
+            f"leader in the obstacle area (chain active): {100 * b['leader_in_area_steps']:.1f}%")
 
 
 def _edge(cfg: EnvConfig) -> float:

@@ -31,9 +31,12 @@ def failure_metrics(rollout: TensorDictBase, goal_radius: float, edge: float | N
     """:func:`episode_metrics` of a from-reset ``[B, T]`` rollout plus the steps of each episode's first
     robot-robot and robot-obstacle collision and of its last robot-robot collision (0: none), whether the
     leader ends at a wall (within ``WALL`` of ``edge``, the farthest a centre goes: arena_half_size -
-    robot_radius, the SPEC's by default) and the share of saturated action components (|a| > 0.99)."""
+    robot_radius, the SPEC's by default), the share of saturated action components (|a| > 0.99), the
+    followers' mean distance to the leader at the last step (m) and the share of steps with the leader
+    inside the obstacle area (where the hybrid reward asks for the chain)."""
     robot, obstacle = rollout["next", "robot_collision"][..., 0], rollout["next", "obstacle_collision"][..., 0]
-    leader = rollout["next", "state", "positions"][:, -1, 0]  # [B, 2] at the last step
+    final = rollout["next", "state", "positions"][:, -1]  # [B, N, 2] at the last step
+    leader = final[:, 0]
     if edge is None:
         spec = EnvConfig()
         edge = spec.arena_half_size - spec.robot_radius
@@ -45,15 +48,21 @@ def failure_metrics(rollout: TensorDictBase, goal_radius: float, edge: float | N
         "first_robot_collision": first_step(robot).double(),
         "last_robot_collision": last_step(robot).double(),
         "first_obstacle_collision": first_step(obstacle).double(),
+        # a team that stays together, and one that crosses the obstacle area (the chain formation's steps)
+        "follower_distance_end": (final[:, 1:] - final[:, :1]).norm(dim=-1).mean(-1).double(),
+        "leader_in_area_steps": rollout["next", "in_obstacle_area"][..., 0].double().mean(1),
     }
 
 
 def breakdown(per_episode: dict[str, torch.Tensor]) -> dict[str, float]:
-    """Fractions of episodes: the parts of success, and first robot-robot collision per window of steps."""
+    """Fractions of episodes: the parts of success, and first robot-robot collision per window of steps;
+    then the means of the followers' final distance to the leader (m) and of the leader's obstacle-area steps."""
     out = {k: per_episode[k].mean().item() for k in PARTS}
     first = per_episode["first_robot_collision"]
     for lo, hi in BINS:
         out[f"first_robot_collision_{lo}_{hi}"] = ((first >= lo) & (first <= hi)).double().mean().item()
     last = per_episode["last_robot_collision"]
     out["robot_collision_only_in_first_20"] = ((first >= 1) & (last <= 20)).double().mean().item()
+    out["follower_distance_end"] = per_episode["follower_distance_end"].mean().item()
+    out["leader_in_area_steps"] = per_episode["leader_in_area_steps"].mean().item()
     return out
