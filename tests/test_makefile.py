@@ -12,7 +12,9 @@ pytestmark = pytest.mark.skipif(shutil.which("make") is None, reason="no make")
 
 def command(target: str, *variables: str) -> str:
     """The line ``make -n`` prints for ``target``'s own command."""
-    out = subprocess.run(["make", "-n", target, *variables], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    # --no-print-directory: under another make (`make test`) make -n also prints "Leaving directory ..."
+    out = subprocess.run(["make", "--no-print-directory", "-n", target, *variables], cwd=ROOT, capture_output=True,
+                         text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     return out.stdout.strip().splitlines()[-1]
 
