@@ -267,6 +267,7 @@ class Trainer:
             ("env.num_robots", self.cfg.env.num_robots, saved["env"]["num_robots"]),
             ("env.num_obstacles", self.cfg.env.num_obstacles, saved["env"]["num_obstacles"]),
             ("model.hidden", list(self.cfg.model.hidden), list(saved["model"]["hidden"])),
+            ("model.leader_critic", self.cfg.model.leader_critic, saved["model"].get("leader_critic", "joint")),
         ):
             if now != then:
                 raise ValueError(f"resume: {name} = {now!r} but the checkpoint has {then!r}; they must match")

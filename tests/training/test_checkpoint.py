@@ -115,6 +115,10 @@ def test_resume_rejects_another_team(tmp_path):
     with pytest.raises(ValueError, match=r"^resume: env.num_robots = 4 but the checkpoint has 3; they must match "
                                          r"\(.*last.pt\)$"):
         Trainer(other, tmp_path).load_checkpoint("auto")
+    own = tiny("matd3", frames=1600)
+    own.model.leader_critic = "own"  # another critic layout
+    with pytest.raises(ValueError, match=r"^resume: model.leader_critic = 'own' but the checkpoint has 'joint'"):
+        Trainer(own, tmp_path).load_checkpoint("auto")
     (tmp_path / CHECKPOINT).write_bytes(b"not a checkpoint")
     with pytest.raises(ValueError, match=r"^checkpoint \S*last.pt cannot be read \(\w+\): it is truncated or corrupt$"):
         Trainer(tiny("matd3", frames=1600), tmp_path).load_checkpoint("auto")
