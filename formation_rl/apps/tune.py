@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 import signal
 import sys
 from dataclasses import dataclass, field
@@ -240,9 +241,10 @@ def main(dcfg: DictConfig) -> None:
     plain = dataclasses.asdict(cfg)
     from formation_rl.apps.tune import run_worker as worker  # by reference: this file may be running as __main__
 
-    jobs = [executor.submit(worker, plain, k) for k in range(cfg.workers)]
+    jobs = []
     signal.signal(signal.SIGTERM, _interrupt)  # a kill of this command stops its local workers too
     try:
+        jobs += [executor.submit(worker, plain, k) for k in range(cfg.workers)]
         for job in jobs:
             try:
                 job.result()
@@ -254,8 +256,11 @@ def main(dcfg: DictConfig) -> None:
             for job in jobs:
                 job.cancel(check=False)
         print(f"stopped: the study in {storage_url(cfg)} keeps its finished trials; run the same command to "
-              "resume", file=sys.stderr)
-        sys.exit(130)
+              "resume", file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        # no interpreter shutdown: submitit's job objects clean up in __del__, which fails then, and a
+        # stop caught mid-call could leave a thread that shutdown would wait on (seen under a full test run)
+        os._exit(130)
     del jobs  # submitit's jobs clean up in __del__, which fails at interpreter exit
     text = summary(load_study(cfg))
     path = Path(cfg.out) / cfg.study / "summary.md"
