@@ -258,9 +258,7 @@ def main(dcfg: DictConfig) -> None:
         print(f"stopped: the study in {storage_url(cfg)} keeps its finished trials; run the same command to "
               "resume", file=sys.stderr, flush=True)
         sys.stdout.flush()
-        # no interpreter shutdown: submitit's job objects clean up in __del__, which fails then, and a
-        # stop caught mid-call could leave a thread that shutdown would wait on (seen under a full test run)
-        os._exit(130)
+        os._exit(130)  # no interpreter shutdown: submitit's job objects clean up in __del__, which fails there
     del jobs  # submitit's jobs clean up in __del__, which fails at interpreter exit
     text = summary(load_study(cfg))
     path = Path(cfg.out) / cfg.study / "summary.md"

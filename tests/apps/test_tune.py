@@ -67,9 +67,12 @@ def test_stopping_the_command_stops_its_local_workers(tmp_path):
     import signal
     import time
 
+    # output to files, not pipes: submitit's local controller inherits them, so a pipe stays open until the
+    # worker is gone, and reading it to the end would wait for the worker, not for the command
+    log = (tmp_path / "out.txt").open("w")
     proc = subprocess.Popen([sys.executable, "-m", "formation_rl.apps.tune", f"out={tmp_path}", "trials=50",
                              "workers=1", TINY.replace("total_frames=1600", "total_frames=400000")], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=log, stderr=subprocess.STDOUT, text=True)
     pid_file = None
     for _ in range(600):  # until the worker has started (its submitit files appear; slow on a loaded machine)
         time.sleep(0.5)
@@ -79,12 +82,14 @@ def test_stopping_the_command_stops_its_local_workers(tmp_path):
             break
     if pid_file is None:
         proc.kill()
-        raise AssertionError(f"no worker started in 300 s: {proc.communicate(timeout=60)}")
+        proc.wait(timeout=60)
+        raise AssertionError(f"no worker started in 300 s: {(tmp_path / 'out.txt').read_text()}")
     worker_id = int(pid_file.name.split("_")[0])
     proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130 and "run the same command to resume" in err
-    for _ in range(40):
+    assert proc.wait(timeout=60) == 130
+    log.close()
+    assert "run the same command to resume" in (tmp_path / "out.txt").read_text()
+    for _ in range(240):  # the worker gets SIGINT and stops (up to a minute on a loaded machine)
         try:
             os.kill(worker_id, 0)
         except ProcessLookupError:
