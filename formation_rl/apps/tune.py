@@ -243,6 +243,9 @@ def main(dcfg: DictConfig) -> None:
 
     jobs = []
     signal.signal(signal.SIGTERM, _interrupt)  # a kill of this command stops its local workers too
+    # Ctrl-C raises here, and the workers inherit a SIGINT they act on (submitit cancels local jobs with it):
+    # a command started in the background by a shell inherits SIGINT ignored, and so would its workers
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         jobs += [executor.submit(worker, plain, k) for k in range(cfg.workers)]
         for job in jobs:
