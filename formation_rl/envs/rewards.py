@@ -40,17 +40,15 @@ class Geometry:
         )
 
 
-def _pairwise_distances(pos: torch.Tensor) -> torch.Tensor:
-    """Centre distances ``[N, N, B]`` of batch-last positions ``[2, N, B]``."""
-    px, py = pos[0], pos[1]
-    dx, dy = px[:, None] - px[None], py[:, None] - py[None]
-    return torch.addcmul(dx * dx, dy, dy).sqrt_()
-
-
 def _cross_distances(rows: torch.Tensor, cols: torch.Tensor) -> torch.Tensor:
     """Distances ``[N, N, B]`` from each robot of ``rows`` to each of ``cols`` (batch-last ``[2, N, B]``)."""
     dx, dy = rows[0][:, None] - cols[0][None], rows[1][:, None] - cols[1][None]
     return torch.addcmul(dx * dx, dy, dy).sqrt_()
+
+
+def _pairwise_distances(pos: torch.Tensor) -> torch.Tensor:
+    """Centre distances ``[N, N, B]`` of batch-last positions ``[2, N, B]``."""
+    return _cross_distances(pos, pos)
 
 
 def _norm(v: torch.Tensor) -> torch.Tensor:
