@@ -62,7 +62,7 @@ compare: $(PY)  ## Figures 6-9 and Table 1 from RUNS (run dirs or a sweep dir); 
 tensorboard: $(PY)  ## serve TensorBoard over RUNS (default outputs/); ARGS e.g. "--port 6007 --bind_all"
 	$(VENV)/bin/tensorboard --logdir $(RUNS) $(ARGS)
 
-demo: $(PY)  ## roll 64 copies for one episode, print SPEC §6 metrics, write a GIF (ARGS = Hydra overrides)
+demo: $(PY)  ## roll 64 copies for one episode, print metrics (docs/reference.md), write a GIF (ARGS = Hydra overrides)
 	$(PY) -m formation_rl.apps.demo $(ARGS)
 
 test: $(PY)  ## unit tests (what CI runs)

@@ -9,7 +9,7 @@ speed drifts from run to run:
 1. the fp32 matmul rate (GFLOP/s, the best of 1024^2 and 2048^2 square products): the reference;
 2. the PER-MATD3 gradient step (below) in fp32 and in bf16 (``precision=bf16``), alternated, each
    beside the square-matmul rate of its own precision (bf16 only where the CPU multiplies it natively);
-3. per algorithm at the SPEC defaults (N=5, M=4, batch 1024): milliseconds per gradient step
+3. per algorithm at the defaults (N=5, M=4, batch 1024): milliseconds per gradient step
    (replay sampling, critic step, actor step every ``policy_delay``, soft update, priority
    write-back), the step's GEMM FLOPs counted from the layer sizes (:func:`step_flops`),
    achieved GFLOP/s and its ratio to the matmul rate;
@@ -108,7 +108,7 @@ def make_config(algo: str, **top) -> TrainConfig:
     cfg.algo = replace(cfg.algo, **OmegaConf.to_container(OmegaConf.load(CONF / "algo" / f"{algo}.yaml")))
     for k, v in top.items():
         if k == "num_robots":
-            # 17 robots do not fit the default 1 m start square at the SPEC's spacing: a 1.6 m one
+            # 17 robots do not fit the default 1 m start square at the default spacing: a 1.6 m one
             cfg.env = replace(cfg.env, num_robots=v, start_high=-2.2 if v > 9 else cfg.env.start_high)
         else:
             setattr(cfg, k, v)

@@ -1,4 +1,4 @@
-"""Evaluation (SPEC §6 protocol) and rendering, the library and the commands: numbers, files, errors."""
+"""Evaluation (the reference.md protocol) and rendering, the library and the commands: numbers, files, errors."""
 
 import csv
 import json

@@ -1,4 +1,4 @@
-"""MADDPG, MATD3 and PER-MATD3 built from TorchRL's losses (SPEC §5)."""
+"""MADDPG, MATD3 and PER-MATD3 built from TorchRL's losses (docs/reference.md, Algorithms)."""
 
 from __future__ import annotations
 

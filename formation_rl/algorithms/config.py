@@ -1,5 +1,6 @@
 """The algorithm's settings (the ``algo`` part of the training schema,
-:class:`~formation_rl.training.config.TrainConfig`; ``conf/algo/*.yaml``). Defaults are SPEC §5 unless marked choice."""
+:class:`~formation_rl.training.config.TrainConfig`; ``conf/algo/*.yaml``).
+Defaults: reference.md, Algorithms, unless marked choice."""
 
 from __future__ import annotations
 

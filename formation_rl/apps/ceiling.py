@@ -1,7 +1,7 @@
 """What the obstacle sensing range allows a reactive team: ``python -m formation_rl.apps.ceiling [overrides]``.
 
-A policy that acts on the SPEC §3 observation sees an obstacle only once its surface is within
-``sensing_range`` (rho_d, 0.2 m by SPEC §1), and it collides 0.1 m later (rho_o). For each sensing
+A policy that acts on the observation of docs/reference.md sees an obstacle only once its surface is within
+``sensing_range`` (rho_d, 0.2 m by default), and it collides 0.1 m later (rho_o). For each sensing
 range this runs a random search over the classical controller's gains (``formation_rl.models.controller``)
 on training scenarios (seed 0), then evaluates the best gain set on the held-out scenarios of
 ``make eval``, and reports the team's success with its parts and the leader's own share: the leader
@@ -62,7 +62,7 @@ def braking_limit(cfg: EnvConfig, corner: bool) -> float:
     always stop short of contact: it comes into view at a gap in ``(rho_d - v dt, rho_d]`` and must
     keep the gap >= rho_o while shedding ``max_force / mass * dt`` of speed per step (``sqrt(2)``
     times that with the action box's corner on a diagonal normal), moving after each speed update
-    (semi-implicit Euler, SPEC §1)."""
+    (semi-implicit Euler; reference.md, World)."""
     shed = cfg.max_force / cfg.mass * cfg.dt * (math.sqrt(2.0) if corner else 1.0)
     room = cfg.sensing_range - cfg.obstacle_collision_margin
     best = 0.0
@@ -148,14 +148,14 @@ def plot(rows: list[dict], out: Path) -> Path:
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
     leader_label = "leader at goal, no obstacle contact (gains chosen for it)"
     for src, key, label in (("held_out_leader", "leader_ok", leader_label),
-                            ("held_out", "success", "team success (SPEC §6)"),
+                            ("held_out", "success", "team success"),
                             ("held_out", "no_obstacle_collision", "no obstacle contact (team)")):
         y = [100 * r[src][key] for r in rows]
         e = [100 * r[src][f"{key}_ci95"] for r in rows]
         ax.errorbar(ranges, y, yerr=e, marker="o", capsize=3, label=label)
     ax.axhline(90, color="k", ls=":", lw=1, label="issue 6 target (90%)")
     ax.axvline(0.2, color="gray", ls="--", lw=1)
-    ax.set_xlabel("obstacle sensing range rho_d (m); SPEC: 0.2")
+    ax.set_xlabel("obstacle sensing range rho_d (m); default: 0.2")
     ax.set_ylabel("held-out episodes (%)")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
@@ -187,7 +187,7 @@ def run(cfg: CeilingConfig) -> list[Path]:
                "free_path_time": safe_path_time(spec, spec.max_speed)}
     for key in ("axis", "corner"):
         physics[f"safe_path_time_{key}"] = safe_path_time(spec, physics[f"braking_limit_{key}"])
-    print(f"SPEC world: an obstacle first sensed while closing faster than {physics['braking_limit_axis']:.2f} m/s "
+    print(f"Default world: an obstacle first sensed while closing faster than {physics['braking_limit_axis']:.2f} m/s "
           f"({physics['braking_limit_corner']:.2f} m/s braking with the corner on a diagonal) may not be avoided; "
           f"flying where obstacles may be at those speeds, start to goal takes {physics['safe_path_time_axis']:.1f} s "
           f"({physics['safe_path_time_corner']:.1f} s) on the mean scenario, against {physics['free_path_time']:.1f} s "

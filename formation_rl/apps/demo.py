@@ -1,6 +1,6 @@
 """Roll the formation world and report: ``python -m formation_rl.apps.demo [hydra overrides]``.
 
-Writes ``metrics.json`` (SPEC §6 means over episodes) and ``rollout.gif`` (copy 0) into the Hydra
+Writes ``metrics.json`` (metric means over episodes; reference.md, Metrics) and ``rollout.gif`` (copy 0) into the Hydra
 run directory and prints both paths.
 """
 

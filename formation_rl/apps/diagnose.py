@@ -1,6 +1,6 @@
 """Why episodes fail: ``python -m formation_rl.apps.diagnose ckpt=PATH`` (or ``ckpt=[PATH,apf,...]`` to compare).
 
-On the held-out episodes of ``make eval`` (same seed, the checkpoint's own world), success (SPEC §6)
+On the held-out episodes of ``make eval`` (same seed, the checkpoint's own world), success (reference.md, Metrics)
 is split into its three parts: the leader within ``rho_g`` of the goal at the last step, no
 robot-robot collision, no robot-obstacle collision; and each episode's first collision of either
 kind is timed. Prints a table per controller and writes ``failures.json`` and

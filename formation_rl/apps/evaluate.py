@@ -1,4 +1,4 @@
-"""Evaluate a policy by the protocol of SPEC §6: ``python -m formation_rl.apps.evaluate ckpt=PATH [overrides]``.
+"""Evaluate a policy by the reference.md protocol: ``python -m formation_rl.apps.evaluate ckpt=PATH [overrides]``.
 
 Deterministic actors on ``episodes`` fresh episodes from held-out seeds, batched over env copies;
 prints mean and 95% confidence interval of each metric and writes ``metrics.json`` and
@@ -27,7 +27,7 @@ from formation_rl.utils import check_device
 @dataclass
 class EvalConfig:
     ckpt: str | None = None  # policy.pt, last.pt, a run directory, or "apf" (the classical controller)
-    episodes: int = 1000  # fresh held-out episodes (SPEC §6)
+    episodes: int = 1000  # fresh held-out episodes (reference.md, Evaluation protocol)
     num_envs: int = 1000  # copies stepped together (episodes run in rounds of this many)
     seed: int = EVAL_SEED
     out: str | None = None  # where metrics.json / metrics.csv go (default: outputs/eval/<checkpoint or run name>)

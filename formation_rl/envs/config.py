@@ -1,4 +1,4 @@
-"""Typed configuration of the formation world (SPEC §1-4).
+"""Typed configuration of the formation world (docs/reference.md, World to Rewards).
 
 The YAML files under ``conf/`` carry the same defaults with their provenance (paper / choice);
 ``tests/envs/test_config.py`` checks that the two never drift apart.
@@ -18,7 +18,7 @@ REWARD_VARIANTS = ("hybrid", "fixed")
 
 @dataclass
 class FormationConfig:
-    """A formation: slot geometry and which robot pairs are constrained (SPEC §2)."""
+    """A formation: slot geometry and which robot pairs are constrained (reference.md, Formations)."""
 
     shape: str = "v"  # v | chain
     spacing: float = 0.5  # m, distance between consecutive slots (s, or s_chain for chain)
@@ -31,7 +31,7 @@ def _chain() -> FormationConfig:
 
 @dataclass
 class RewardConfig:
-    """Reward variant and the sparse/guided magnitudes (SPEC §4)."""
+    """Reward variant and the sparse/guided magnitudes (reference.md, Rewards)."""
 
     variant: str = "hybrid"  # hybrid: area_formation inside the obstacle area; fixed: never switch
     area_formation: FormationConfig | None = field(default_factory=_chain)
@@ -61,7 +61,7 @@ class RewardConfig:
 
 @dataclass
 class EnvConfig:
-    """Every quantity of the world, with the SPEC default."""
+    """Every quantity of the world, with its default."""
 
     num_robots: int = 5  # N, index 0 is the leader
     num_obstacles: int = 4  # M
@@ -86,13 +86,13 @@ class EnvConfig:
     obstacle_collision_margin: float = 0.1  # rho_o
     sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible
-    relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (choice; False: SPEC §3)
+    relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (choice; False: reference.md)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @property
     def obs_dim(self) -> int:
-        """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (SPEC §3)."""
+        """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions)."""
         return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1
 
     @property

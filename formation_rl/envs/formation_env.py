@@ -23,7 +23,7 @@ class FormationEnv(EnvBase):
     One agent group ``"agents"`` of N robots (index 0 the leader): ``("agents", "observation")``
     ``[B, N, D]``, ``("agents", "action")`` ``[B, N, 2]`` in [-1, 1], ``("agents", "reward")``
     ``[B, N, 1]``; root ``done``/``terminated``/``truncated`` ``[B, 1]``; the world under ``"state"``
-    and the per-step diagnostics of SPEC §6 at the root. Actions may require grad (a policy called
+    and the per-step diagnostics (reference.md, Metrics) at the root. Actions may require grad (a policy called
     outside ``torch.no_grad()``): the step detaches them, the world is not differentiable.
 
     ``compile_physics=True`` runs the step's tensor program (dynamics, rewards, observations) through

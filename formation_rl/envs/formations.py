@@ -1,4 +1,4 @@
-"""Formation geometry (SPEC §2): slots -> desired distances d*_ij and constrained pairs."""
+"""Formation geometry (docs/reference.md, Formations): slots -> desired distances d*_ij and constrained pairs."""
 
 from __future__ import annotations
 

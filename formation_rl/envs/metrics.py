@@ -1,4 +1,4 @@
-"""Episode metrics of SPEC §6 (paper §5.3): the one implementation used by training logs,
+"""Episode metrics of docs/reference.md, Metrics (paper §5.3): the one implementation used by training logs,
 evaluation and plots.
 
 Works on TorchRL rollout/collector tensordicts (``[B, T]`` or ``[B]``) through the per-step

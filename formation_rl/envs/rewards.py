@@ -1,4 +1,4 @@
-"""Collisions, sensing, formation errors and the hybrid/fixed reward of SPEC §4, batched.
+"""Collisions, sensing, formation errors and the hybrid/fixed reward (docs/reference.md, Rewards), batched.
 
 Tensors here are *batch-last* (``[2, N, B]`` for positions): every broadcast then runs over a
 contiguous inner dimension of B copies, several times faster on CPU than ``[B, N, 2]``.

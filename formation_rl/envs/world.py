@@ -1,4 +1,4 @@
-"""World of SPEC §1 and §3 as batched tensor functions: dynamics, scenario sampling, observations.
+"""World and observations (docs/reference.md) as batched tensor functions: dynamics, scenario sampling, observations.
 
 Every function works on a batch of environment copies at once (leading dim ``B``); none loops over
 copies or robots.
@@ -17,7 +17,7 @@ EXACT = "donot_use_mm_for_euclid_dist"
 
 
 def integrate(pos: torch.Tensor, vel: torch.Tensor, action: torch.Tensor, cfg: EnvConfig):
-    """One semi-implicit Euler step (SPEC §1, paper §2.1). All batch-last ``[2, N, B]``."""
+    """One semi-implicit Euler step (reference.md, World; paper §2.1). All batch-last ``[2, N, B]``."""
     vel = vel + action * (cfg.max_force / cfg.mass * cfg.dt)
     speed = torch.hypot(vel[0], vel[1])  # [N, B]
     vel = vel * (cfg.max_speed / speed).clamp_(max=1.0)  # rescale only when |v| > v_max
@@ -78,11 +78,11 @@ def place_discs(
 
 def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device,
                      anywhere: float = 0.0, team: bool = False) -> dict[str, torch.Tensor]:
-    """Goal, obstacles and start positions for ``n`` fresh episodes (SPEC §1).
+    """Goal, obstacles and start positions for ``n`` fresh episodes (reference.md, World).
 
-    ``anywhere``: the share of episodes whose robots start anywhere in the arena instead of the SPEC's
+    ``anywhere``: the share of episodes whose robots start anywhere in the arena instead of the default
     start square (each robot uniform, clear of the others and of obstacles): exploring starts for
-    training only (``FormationEnv(start_anywhere=...)``); 0 is the SPEC's world. ``team``: those
+    training only (``FormationEnv(start_anywhere=...)``); 0 is the default world. ``team``: those
     episodes keep the start square's size and move it, team and all, anywhere in the arena.
     """
     k = CANDIDATES
@@ -110,7 +110,7 @@ def sample_scenarios(n: int, cfg: EnvConfig, gen: torch.Generator, device,
     obstacle_centers, obstacle_radii = placed
 
     # robots: centre distances >= 2r + rho_r, i.e. discs of radius r + rho_r / 2 with zero gap;
-    # clear of obstacle collision at t = 0 (choice: the SPEC's start square may touch an obstacle)
+    # clear of obstacle collision at t = 0 (choice: the default start square may touch an obstacle)
     exclusion = cfg.robot_radius + cfg.robot_collision_margin / 2
 
     calls = [0]
@@ -178,7 +178,7 @@ def observation_index(n: int, m: int, device=None) -> torch.Tensor:
 
 
 def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], index: torch.Tensor) -> torch.Tensor:
-    """Per-robot observations of SPEC §3, ``[B, N, D]`` with D = 4 + 2(N-1) + 3M + 1.
+    """Per-robot observations (reference.md, Observations and actions), ``[B, N, D]`` with D = 4 + 2(N-1) + 3M + 1.
 
     ``pos``/``vel`` are batch-last ``[2, N, B]``, ``q`` the output of
     :func:`formation_rl.envs.rewards.step_quantities`, ``index`` from :func:`observation_index`.
@@ -202,7 +202,7 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
 def make_relative(obs: torch.Tensor) -> torch.Tensor:
     """Followers' role blocks of ``obs`` [B, N, D] as positions relative to their own: p_j - p_i, in place.
 
-    ``EnvConfig.relative_positions`` (a choice beside SPEC §3): the same layout, translation-invariant.
+    ``EnvConfig.relative_positions`` (a choice; docs/departures.md): the same layout, translation-invariant.
     ``obs`` is the fresh tensor :func:`observe` returns.
     """
     n = obs.shape[-2]

@@ -1,4 +1,4 @@
-"""Evaluation: loading a trained policy (or the classical controller), the SPEC §6 protocol on held-out
+"""Evaluation: loading a trained policy (or the classical controller), the protocol of reference.md on held-out
 episodes, and the failure metrics. Imports no training code (:mod:`formation_rl.training`)."""
 
 from formation_rl.evaluation.evaluate import EVAL_SEED, evaluate_policy, mean_ci

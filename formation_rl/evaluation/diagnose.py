@@ -31,7 +31,7 @@ def failure_metrics(rollout: TensorDictBase, goal_radius: float, edge: float | N
     """:func:`episode_metrics` of a from-reset ``[B, T]`` rollout plus the steps of each episode's first
     robot-robot and robot-obstacle collision and of its last robot-robot collision (0: none), whether the
     leader ends at a wall (within ``WALL`` of ``edge``, the farthest a centre goes: arena_half_size -
-    robot_radius, the SPEC's by default), the share of saturated action components (|a| > 0.99), the
+    robot_radius, the default world's if None), the share of saturated action components (|a| > 0.99), the
     followers' mean distance to the leader at the last step (m) and the share of steps with the leader
     inside the obstacle area (where the hybrid reward asks for the chain)."""
     robot, obstacle = rollout["next", "robot_collision"][..., 0], rollout["next", "obstacle_collision"][..., 0]
@@ -42,7 +42,7 @@ def failure_metrics(rollout: TensorDictBase, goal_radius: float, edge: float | N
         edge = spec.arena_half_size - spec.robot_radius
     return {
         **episode_metrics(rollout, goal_radius),
-        # where deterministic policies get stuck: pushing into a wall zeroes the velocity (SPEC §1)
+        # where deterministic policies get stuck: pushing into a wall zeroes the velocity (reference.md, World)
         "leader_at_wall": (leader.abs().amax(-1) >= edge - WALL).double(),
         "saturated_actions": (rollout["agents", "action"].abs() > 0.99).double().mean((1, 2, 3)),
         "first_robot_collision": first_step(robot).double(),

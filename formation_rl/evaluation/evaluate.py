@@ -1,5 +1,5 @@
-"""Evaluation by the protocol of SPEC §6: deterministic actors on fresh episodes from held-out seeds,
-batched over env copies; per-episode metrics, their means with 95% confidence intervals, the table
+"""Evaluation by docs/reference.md, Evaluation protocol: deterministic actors on fresh episodes from held-out
+seeds, batched over env copies; per-episode metrics, their means with 95% confidence intervals, the table
 and the ``metrics.json`` / ``metrics.csv`` files of ``make eval`` (the app: :mod:`formation_rl.apps.evaluate`).
 """
 
@@ -42,7 +42,7 @@ def evaluate_policy(policy: Callable[[TensorDictBase], TensorDictBase], env_cfg:
                     progress: bool = True,
                     metrics: Callable[[TensorDictBase, float], dict[str, torch.Tensor]] = episode_metrics,
                     ) -> dict[str, torch.Tensor]:
-    """Per-episode SPEC §6 metrics (``{metric: [episodes]}``) of ``policy`` on fresh episodes.
+    """Per-episode metrics (``{metric: [episodes]}``; reference.md, Metrics) of ``policy`` on fresh episodes.
 
     ``metrics(rollout, goal_radius)`` maps each round's ``[copies, max_steps]`` rollout, every copy
     from a reset, to per-episode values (default: :func:`~formation_rl.envs.metrics.episode_metrics`).

@@ -1,4 +1,4 @@
-"""Per-robot actors and centralized critics (SPEC §5)."""
+"""Per-robot actors and centralized critics (docs/reference.md, Algorithms)."""
 
 from formation_rl.models.networks import (
     CentralizedCritic,

@@ -1,6 +1,6 @@
 """A classical, non-learned reference controller, ``apf`` (``make eval CKPT=apf``): the bar for what learning buys.
 
-Each robot acts on its own SPEC §3 observation only (the information a learned actor has, so the
+Each robot acts on its own observation (docs/reference.md) only (the information a learned actor has, so the
 comparison is fair, decentralized execution included):
 
 - **leader**: flies towards the goal with a braking speed profile (``sqrt(2 a d)``, capped by a
@@ -71,7 +71,7 @@ class APFController(nn.Module):
         order = [list(range(i)) + [n - 1] + list(range(i, n - 1)) for i in range(1, n)]
         self.register_buffer("order", torch.tensor(order), persistent=False)  # [N-1, N]
 
-    # ------------------------------------------------------------------ observation layout (SPEC §3)
+    # ------------------------------------------------------------------ observation layout (reference.md)
     def _split(self, obs: torch.Tensor):
         n, m = self.cfg.num_robots, self.cfg.num_obstacles
         p, v = obs[..., 0:2], obs[..., 2:4]

@@ -227,7 +227,7 @@ class PerRobotMLP(nn.Module):
 
 
 class CentralizedCritic(nn.Module):
-    """Q_i(o_1..o_N, a_1..a_N) for every robot i, each robot with its own MLP (SPEC §5, CTDE).
+    """Q_i(o_1..o_N, a_1..a_N) for every robot i, each robot with its own MLP (reference.md, Algorithms; CTDE).
 
     Critic i sees every observation and action; gradients reach the actions only through a_i
     (the others enter detached), so ``-sum_i Q_i`` trains actor i on its own critic, as in MADDPG.

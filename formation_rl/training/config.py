@@ -1,4 +1,4 @@
-"""Typed training configuration (Hydra ConfigStore schema). Defaults are SPEC §5 unless marked choice.
+"""Typed training configuration (Hydra ConfigStore schema). Defaults: reference.md, Algorithms, unless marked choice.
 
 ``conf/config.yaml`` and the ``conf/algo/`` and ``conf/budget/`` groups fill these; a misspelt key
 or a wrong type fails at start with Hydra's message, an out-of-range value with ``validate``.
@@ -25,10 +25,10 @@ class TrainConfig:
     model: ModelConfig = field(default_factory=ModelConfig)
     seed: int = 0  # training seed: networks, exploration and training scenarios
     start_anywhere: float = 0.0  # share of training episodes whose robots start anywhere in the arena (exploring
-    #                              starts, ours); evaluation always starts in the SPEC's square
+    #                              starts, ours); evaluation always starts in the default square
     start_team: bool = False  # those starts move the start square, team and all, anywhere in the arena; false: each
     #                           robot anywhere on its own (ours)
-    total_frames: int = 300_000  # frames = transitions of one env copy (SPEC §5); paper: 9,000,000
+    total_frames: int = 300_000  # frames = transitions of one env copy (reference.md, Algorithms); paper: 9,000,000
     num_envs: int = 64  # env copies stepped together by the collector
     steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames
     device: str = "cpu"  # cpu | cuda | cuda:0 ...

@@ -20,7 +20,7 @@ def test_leader_share_bounds_team_success_per_episode():
     leader_ok = at_goal & ~touched
     success = per["success"].bool()
     assert not (success & ~leader_ok).any() and not (touched & (per["CBRO"] == 0)).any()
-    assert touched.any() and leader_ok.any()  # both kinds occur at the SPEC's 0.2 m sensing
+    assert touched.any() and leader_ok.any()  # both kinds occur at the default 0.2 m sensing
 
 
 def test_ceiling_writes_table_json_and_figure(tmp_path):

@@ -1,4 +1,4 @@
-"""SPEC §1 dynamics: semi-implicit Euler, speed clipping, wall clamp, to 1e-6."""
+"""Dynamics (reference.md, World): semi-implicit Euler, speed clipping, wall clamp, to 1e-6."""
 
 import math
 
@@ -10,7 +10,7 @@ from formation_rl.envs import EnvConfig, FormationEnv
 
 
 def reference_step(p, v, a, cfg):
-    """The SPEC's dynamics for one robot in plain Python floats."""
+    """The dynamics (reference.md, World) for one robot in plain Python floats."""
     v = [v[k] + a[k] * cfg.max_force / cfg.mass * cfg.dt for k in range(2)]
     speed = math.hypot(*v)
     if speed > cfg.max_speed:

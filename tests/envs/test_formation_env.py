@@ -50,7 +50,7 @@ def test_observation_layout():
 
 
 def test_relative_positions_shift_only_the_followers_view_of_the_others():
-    """env.relative_positions: follower i sees p_j - p_i in the same slots; everything else is SPEC §3."""
+    """env.relative_positions: follower i sees p_j - p_i in the same slots; everything else as in reference.md."""
     state = dict(positions=[[[1.0, 1.0], [0.0, 1.2], [-2.0, 3.0]]], velocities=[[[0.1, 0.2], [0.0, -0.3], [0.5, 0.0]]],
                  goal=[[3.2, 3.1]], obstacle_centers=[[[1.0, 1.75], [-3.0, -1.0]]], obstacle_radii=[[0.5, 0.4]])
     obs = {}
@@ -101,7 +101,7 @@ def test_auto_reset_in_rollout():
 
 
 def test_an_episode_ends_by_truncation_only():
-    """After max_steps the episode is done and truncated, never terminated (SPEC §1), collisions or not: its
+    """After max_steps the episode is done and truncated, never terminated (reference.md, World), collisions or not: its
     last transition keeps the bootstrap from the next observation (the replay side: tests/training/test_replay.py)."""
     env = FormationEnv(16, config=EnvConfig(max_steps=12), seed=0)
     nxt = env.rollout(12, break_when_any_done=False)["next"]
@@ -211,7 +211,7 @@ def test_rand_action_is_uniform_in_bounds():
 
 def test_start_anywhere_spreads_training_starts_and_zero_keeps_the_spec_square():
     """FormationEnv(start_anywhere=p): a share p of episodes start with robots anywhere in the arena (exploring
-    starts for training); 0, the default and every evaluation's, keeps the SPEC's start square."""
+    starts for training); 0, the default and every evaluation's, keeps the default start square."""
     cfg = EnvConfig()
     spec = FormationEnv(256, config=cfg, seed=0).reset()["state", "positions"]
     assert spec.min() >= cfg.start_low and spec.max() <= cfg.start_high
@@ -251,7 +251,7 @@ def test_start_team_moves_the_start_square_with_the_team():
     extent = pos.amax(1) - pos.amin(1)  # [B, 2]: the team's bounding box
     assert (extent <= side + 1e-5).all()
     low = pos.amin(1)
-    assert low.std(0).min() > 1.0  # the boxes are spread over the arena, not in the SPEC's corner
+    assert low.std(0).min() > 1.0  # the boxes are spread over the arena, not in the default start corner
     assert pos.abs().max() <= cfg.arena_half_size - cfg.robot_radius
     d = torch.cdist(pos, pos) + torch.eye(cfg.num_robots) * 10
     assert d.min() >= 2 * cfg.robot_radius + cfg.robot_collision_margin - 1e-6

@@ -1,4 +1,4 @@
-"""SPEC §6 metrics on hand-built rollouts."""
+"""The metrics (reference.md, Metrics) on hand-built rollouts."""
 
 import pytest
 import torch

@@ -1,4 +1,4 @@
-"""SPEC §2 and §4: formation geometry, sparse events and guided terms, hybrid and fixed."""
+"""reference.md, Formations and Rewards: formation geometry, sparse events and guided terms, hybrid and fixed."""
 
 import math
 
@@ -15,7 +15,7 @@ FAR = [[0.0, -1.5]]  # an obstacle nobody touches
 
 
 def v_slots(origin=(0.0, 3.0)):
-    """V of SPEC §2 for N = 5, written out: leader, L1, R1, L2, R2."""
+    """The V (reference.md, Formations) for N = 5, written out: leader, L1, R1, L2, R2."""
     x, y = origin
     return [[x, y], [x - S, y + S], [x - S, y - S], [x - 2 * S, y + 2 * S], [x - 2 * S, y - 2 * S]]
 

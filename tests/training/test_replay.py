@@ -24,8 +24,8 @@ def test_uniform_and_prioritized_buffers_keep_buffer_size_frames_and_draw_batch_
 
 
 def test_truncated_episode_keeps_its_bootstrap_in_the_replay_buffer():
-    """An episode ends by truncation only (SPEC §1): its last transition is stored done but not terminated, per
-    robot, so the TD target still bootstraps from the next observation (1 - terminated = 1)."""
+    """An episode ends by truncation only (reference.md, World): its last transition is stored done but not terminated,
+    per robot, so the TD target still bootstraps from the next observation (1 - terminated = 1)."""
     cfg = tiny()
     env = FormationEnv(2, config=cfg.env, seed=0)
     rollout = env.rollout(cfg.env.max_steps, break_when_any_done=False)  # [2, T]
