@@ -56,7 +56,8 @@ class RewardConfig:
     #                             where they are now, from where it was to where it is (a difference reward, ours);
     #                             false: the change of its error, whoever moved
     leader_robot_collision: float = 1.0  # the leader's share of R5 (ours; 1: the paper). 0: followers alone answer
-    #                                      for robot contacts, and a contact leaves the leader's guided term in place
+    #                                      for robot contacts, and a contact leaves the leader's guided term in place;
+    #                                      it scales the robot part of the leader's proximity ramp too
 
 
 @dataclass

@@ -132,7 +132,10 @@ def step_quantities(
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]
         obstacle_clear = gap - cfg.obstacle_collision_margin  # [N, M, B]
-        ramp = (1 - robot_clear / reach).clamp_(min=0).sum(1) + (1 - obstacle_clear / reach).clamp_(min=0).sum(1)
+        robot_ramp = (1 - robot_clear / reach).clamp_(min=0).sum(1)  # [N, B]
+        if rw.leader_robot_collision != 1.0:  # the leader answers for robot contacts by its share of R5
+            robot_ramp[0] *= rw.leader_robot_collision
+        ramp = robot_ramp + (1 - obstacle_clear / reach).clamp_(min=0).sum(1)
         guided -= rw.proximity * ramp
     if progress:
         unit = cfg.max_speed * cfg.dt  # the most a robot moves in a step

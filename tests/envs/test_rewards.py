@@ -214,6 +214,14 @@ def test_proximity_ramps_toward_a_collision_before_it_happens():
     ramp = 1 - (math.hypot(0.25, 0.25) - 0.3) / 0.2
     assert r[0] == pytest.approx(ref[0] - 2.0 * ramp, abs=1e-5)
     assert r[1] == pytest.approx(ref[1] - 2.0 * ramp, abs=1e-5)
+    # the leader's share of R5 scales its robot ramp too (followers unchanged): at 0 it answers for no contact
+    cfg.reward = RewardConfig(proximity=2.0, proximity_range=0.2, leader_robot_collision=0.0)
+    shared, _ = rewards_at(FormationEnv(1, config=cfg, seed=0), near)
+    free = EnvConfig(num_obstacles=1)
+    free.reward = RewardConfig(leader_robot_collision=0.0)
+    ref0, _ = rewards_at(FormationEnv(1, config=free, seed=0), near)
+    assert shared[0] == pytest.approx(ref0[0], abs=1e-5)
+    assert shared[1] == pytest.approx(r[1], abs=1e-5)
 
 
 def test_leader_robot_collision_share():
