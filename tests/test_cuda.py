@@ -5,7 +5,7 @@ Skipped where CUDA is absent (CI); run on a GPU machine with ``pytest tests/test
 
 import pytest
 import torch
-from test_train import tiny
+from helpers import tiny
 from torchrl.envs.utils import check_env_specs
 
 import formation_rl

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 import torch
+from helpers import tiny
 from hydra import compose, initialize_config_dir
-from test_train import tiny
 
 from formation_rl.algorithms import NonFiniteError
 from formation_rl.apps.cli import check_overrides

@@ -4,9 +4,9 @@ from pathlib import Path
 
 import pytest
 import torch
+from helpers import tiny
 from tensordict import TensorDict
 from tensordict.nn import TensorDictModuleBase
-from test_train import tiny
 
 import formation_rl
 from formation_rl.envs import EnvConfig, FormationEnv

@@ -4,7 +4,7 @@ import io
 
 import pytest
 import torch
-from test_train import scalars, tiny
+from helpers import scalars, tiny
 
 from formation_rl.training.checkpoint import CHECKPOINT, atomic_save, load_checkpoint_file, resolve_checkpoint
 from formation_rl.training.trainer import Trainer

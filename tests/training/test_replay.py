@@ -2,7 +2,7 @@
 
 import torch
 from algorithms.conftest import D, N, make_batch
-from test_train import tiny
+from helpers import tiny
 
 from formation_rl.algorithms import WEIGHT_KEY, make_algorithm
 from formation_rl.algorithms.config import AlgoConfig
