@@ -87,21 +87,14 @@ class EnvConfig:
     obstacle_collision_margin: float = 0.1  # rho_o
     sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible
-    observe_velocities: bool = False  # followers also see the others' velocities, after their positions (ours)
     relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (choice; False: reference.md)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @property
     def obs_dim(self) -> int:
-        """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions);
-        2(N-1) more with ``observe_velocities``."""
-        return 4 + self.role_width + 3 * self.num_obstacles + 1
-
-    @property
-    def role_width(self) -> int:
-        """Width of the role block: 2(N-1), twice that with ``observe_velocities``."""
-        return 2 * (self.num_robots - 1) * (2 if self.observe_velocities else 1)
+        """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions)."""
+        return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1
 
     @property
     def area_formation(self) -> FormationConfig:
@@ -147,7 +140,6 @@ class EnvConfig:
         _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.relative_positions, "relative_positions", lambda v: isinstance(v, bool), "true or false")
-        _check(self.observe_velocities, "observe_velocities", lambda v: isinstance(v, bool), "true or false")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")
         for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):
