@@ -142,8 +142,7 @@ def load_policy(path: str | Path, device: str | torch.device = "cpu", env_config
     env_cfg = EnvConfig.from_dict(state["env"])
     model = ModelConfig(**state["model"])
     actor = make_actor(env_cfg.num_robots, env_cfg.obs_dim, tuple(model.hidden), model.activation,
-                       base=residual_base(model, env_cfg), residual_scale=model.residual_scale,
-                       share_followers=model.share_followers)
+                       base=residual_base(model, env_cfg), residual_scale=model.residual_scale)
     actor.load_state_dict(state["actor"])
     policy = Policy(actor.to(device).eval(), env_cfg, state["algo"], model)
     if env_config is not None:

@@ -16,5 +16,3 @@ class ModelConfig:
     leader_critic: str = "joint"  # joint: the paper's centralized critic for every robot | own: the leader's critic
     #                               reads its own observation and action only (ours; for rewards where the leader
     #                               answers for nothing the followers do, env.reward.leader_robot_collision=0)
-    share_followers: bool = False  # one actor and one critic for every follower, told apart by a per-robot
-    #                                first-layer bias (ours; false: every robot its own networks, the paper's)

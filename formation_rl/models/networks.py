@@ -168,34 +168,21 @@ class _ReluLayers(torch.autograd.Function):
 
 
 class PerRobotMLP(nn.Module):
-    """N MLPs ``in -> hidden... -> out``, input ``[..., N, in]``, output ``[..., N, out]``.
-
-    ``groups`` (robot -> group, default every robot its own): robots of one group share every weight and
-    every bias but the first layer's, which stays per robot and tells them apart (the same as a one-hot
-    robot id at the input). ``weights[k]`` / ``biases[k]`` hold one entry per group (per robot for the
-    first bias); :meth:`layer` gives them per robot.
-    """
+    """N independent MLPs ``in -> hidden... -> out``, input ``[..., N, in]``, output ``[..., N, out]``."""
 
     def __init__(self, num_robots: int, in_features: int, out_features: int, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu", groups: tuple[int, ...] | None = None):
+                 activation: str = "relu"):
         super().__init__()
         if activation not in ACTIVATIONS:
             raise ValueError(f"model.activation = {activation!r} is invalid: must be one of {', '.join(ACTIVATIONS)}")
-        groups = tuple(range(num_robots)) if groups is None else tuple(groups)
-        if len(groups) != num_robots or sorted(set(groups)) != list(range(max(groups) + 1)):
-            raise ValueError(f"groups = {groups} is invalid: one group index per robot, numbered 0, 1, ...")
-        num_groups = max(groups) + 1
         sizes = [in_features, *hidden, out_features]
         self.num_robots = num_robots
-        self.register_buffer("group", torch.tensor(groups), persistent=False)
-        self.shared = num_groups < num_robots
         self.weights = nn.ParameterList()
         self.biases = nn.ParameterList()
-        for k, (fan_in, fan_out) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
+        for fan_in, fan_out in zip(sizes[:-1], sizes[1:], strict=True):
             bound = 1.0 / math.sqrt(fan_in)  # nn.Linear's default initialisation, per robot
-            rows = num_robots if k == 0 else num_groups  # the first bias: per robot (its id)
-            self.weights.append(nn.Parameter(torch.empty(num_groups, fan_in, fan_out).uniform_(-bound, bound)))
-            self.biases.append(nn.Parameter(torch.empty(rows, 1, fan_out).uniform_(-bound, bound)))
+            self.weights.append(nn.Parameter(torch.empty(num_robots, fan_in, fan_out).uniform_(-bound, bound)))
+            self.biases.append(nn.Parameter(torch.empty(num_robots, 1, fan_out).uniform_(-bound, bound)))
         self.activation = ACTIVATIONS[activation]()  # (in place measured no faster: vmap copies the twins)
         self.compute_dtype: torch.dtype | None = None  # torch.bfloat16: hidden layers under autocast with grad
         self.hand_written: bool | None = None  # _ReluLayers: None = under bf16 only; True/False forces it (tests)
@@ -205,15 +192,6 @@ class PerRobotMLP(nn.Module):
         h = x.reshape(-1, n, d).transpose(0, 1)
         h = self.relu_layers(h) if self.fast else self.layers_from(h, 0)
         return h.transpose(0, 1).reshape(*lead, n, -1)
-
-    def layer(self, k: int) -> tuple[torch.Tensor, torch.Tensor]:
-        """Layer ``k``'s weights ``[N, in, out]`` and bias ``[N, 1, out]``, one per robot (gathered from the
-        groups' when shared: the gradients of robots that share a weight add up in it)."""
-        w, b = self.weights[k], self.biases[k]
-        if self.shared:
-            w = w[self.group]
-            b = b if b.shape[0] == self.num_robots else b[self.group]
-        return w, b
 
     @property
     def fast(self) -> bool:
@@ -230,11 +208,10 @@ class PerRobotMLP(nn.Module):
         layers in ``compute_dtype`` while gradients are on, in fp32 otherwise (as :meth:`layers_from`).
         ``first``: the first layer's weights to use instead of ``weights[0]`` (a masked copy)."""
         dtype = self.compute_dtype if torch.is_grad_enabled() else None
-        weights, biases = zip(*(self.layer(k) for k in range(len(self.weights))), strict=True)
-        weights = list(weights)
+        weights = list(self.weights)  # (a list: slicing a ParameterList makes new Parameters)
         if first is not None:
             weights[0] = first
-        return _ReluLayers.apply(x, action, self.num_robots, dtype, *weights, *biases)[0]
+        return _ReluLayers.apply(x, action, self.num_robots, dtype, *weights, *self.biases)[0]
 
     def layers_from(self, h: torch.Tensor, first: int) -> torch.Tensor:
         """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``.
@@ -245,10 +222,8 @@ class PerRobotMLP(nn.Module):
         last = len(self.weights) - 1
         with _hidden_autocast(h, self.compute_dtype):
             for k in range(first, last):
-                w, b = self.layer(k)
-                h = self.activation(torch.baddbmm(b, h, w))  # robot i's layer
-        w, b = self.layer(last)
-        return torch.baddbmm(b, h.float(), w)
+                h = self.activation(torch.baddbmm(self.biases[k], h, self.weights[k]))  # robot i's layer
+        return torch.baddbmm(self.biases[last], h.float(), self.weights[last])
 
 
 class CentralizedCritic(nn.Module):
@@ -264,13 +239,11 @@ class CentralizedCritic(nn.Module):
     """
 
     def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu", own_only: tuple[int, ...] = (), groups: tuple[int, ...] | None = None):
+                 activation: str = "relu", own_only: tuple[int, ...] = ()):
         super().__init__()
         n, d = num_robots, obs_dim
-        if own_only and groups is not None and any(groups.count(groups[i]) > 1 for i in own_only):
-            raise ValueError("own_only: a robot whose critic reads only its own input cannot share that critic")
         # critic i's first-layer input: every observation (N*D), then every action (N*2)
-        self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation, groups)
+        self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation)
         mask = None
         if own_only:
             mask = torch.ones(n, n * (d + action_dim), 1)
@@ -279,14 +252,14 @@ class CentralizedCritic(nn.Module):
                 mask[i, i * d:(i + 1) * d] = 1.0
                 mask[i, n * d + i * action_dim:n * d + (i + 1) * action_dim] = 1.0
             with torch.no_grad():  # nn.Linear's initialisation for the fan-in the robot really has
-                self.mlp.weights[0][self.mlp.group[list(own_only)]] *= math.sqrt(n)
+                self.mlp.weights[0][list(own_only)] *= math.sqrt(n)
         self.register_buffer("input_mask", mask)  # None: every critic reads everything
 
     def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = observation.shape[:-2], observation.shape[-2:]
         act = action.reshape(-1, n, 2)
         dead = act.detach()
-        w1, b1 = self.mlp.layer(0)
+        w1, b1 = self.mlp.weights[0], self.mlp.biases[0]
         if self.input_mask is not None:
             w1 = w1 * self.input_mask
         if self.mlp.fast:  # the same, forward and backward by hand
@@ -353,30 +326,21 @@ def set_precision(module: nn.Module, precision: str) -> None:
             m.compute_dtype = PRECISIONS[precision]
 
 
-def follower_groups(num_robots: int, share_followers: bool) -> tuple[int, ...] | None:
-    """``groups`` for :class:`PerRobotMLP`: the leader alone, the followers one group (``share_followers``), or
-    None (every robot its own network, the paper's)."""
-    return (0,) + (1,) * (num_robots - 1) if share_followers else None
-
-
 def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
-               base: nn.Module | None = None, residual_scale: float = 0.5,
-               share_followers: bool = False) -> TensorDictModule:
+               base: nn.Module | None = None, residual_scale: float = 0.5) -> TensorDictModule:
     """Deterministic per-robot actors ``o_i -> tanh(mu_i(o_i))`` in [-1, 1]^2 (decentralized execution);
-    with ``base`` (a controller of the same observations), :class:`ResidualActor` corrections to it;
-    ``share_followers``: one actor for every follower, told apart by a per-robot first-layer bias."""
-    mlp = PerRobotMLP(num_robots, obs_dim, 2, tuple(hidden), activation, follower_groups(num_robots, share_followers))
+    with ``base`` (a controller of the same observations), :class:`ResidualActor` corrections to it."""
+    mlp = PerRobotMLP(num_robots, obs_dim, 2, tuple(hidden), activation)
     net = nn.Sequential(mlp, nn.Tanh()) if base is None else ResidualActor(mlp, base, residual_scale)
     return TensorDictModule(net, in_keys=[("agents", "observation")], out_keys=[("agents", "action")])
 
 
 def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
-                own_only: tuple[int, ...] = (), share_followers: bool = False) -> ValueOperator:
+                own_only: tuple[int, ...] = ()) -> ValueOperator:
     """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``
-    (``own_only``: see :class:`CentralizedCritic`; ``share_followers``: as :func:`make_actor`)."""
+    (``own_only``: see :class:`CentralizedCritic`)."""
     return ValueOperator(
-        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only),
-                          follower_groups(num_robots, share_followers)),
+        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only)),
         in_keys=[("agents", "observation"), ("agents", "action")],
         out_keys=[("agents", "state_action_value")],
     )

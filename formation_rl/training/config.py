@@ -88,8 +88,6 @@ def validate(cfg: TrainConfig) -> None:
     check(cfg.model.residual in ("none", "apf"), "model.residual", cfg.model.residual, "none or apf")
     check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
     check(cfg.model.leader_critic in ("joint", "own"), "model.leader_critic", cfg.model.leader_critic, "joint or own")
-    check(isinstance(cfg.model.share_followers, bool), "model.share_followers", cfg.model.share_followers,
-          "true or false")
     check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
     check(cfg.obstacle_curriculum >= 0, "obstacle_curriculum", cfg.obstacle_curriculum, "an integer >= 0")
     check(0 < cfg.obstacle_curriculum_start <= 1, "obstacle_curriculum_start", cfg.obstacle_curriculum_start,

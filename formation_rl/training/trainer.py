@@ -71,11 +71,9 @@ class Trainer:
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
-                                residual_scale=cfg.model.residual_scale,
-                                share_followers=cfg.model.share_followers).to(dev)
+                                residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation,
-                             own_only=(0,) if cfg.model.leader_critic == "own" else (),
-                             share_followers=cfg.model.share_followers).to(dev)
+                             own_only=(0,) if cfg.model.leader_critic == "own" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
@@ -284,7 +282,6 @@ class Trainer:
             ("env.num_obstacles", self.cfg.env.num_obstacles, saved["env"]["num_obstacles"]),
             ("model.hidden", list(self.cfg.model.hidden), list(saved["model"]["hidden"])),
             ("model.leader_critic", self.cfg.model.leader_critic, saved["model"].get("leader_critic", "joint")),
-            ("model.share_followers", self.cfg.model.share_followers, saved["model"].get("share_followers", False)),
         ):
             if now != then:
                 raise ValueError(f"resume: {name} = {now!r} but the checkpoint has {then!r}; they must match")

@@ -1,4 +1,4 @@
-"""Actors are decentralized, critics centralized; no parameters are shared between robots unless asked."""
+"""Actors are decentralized, critics centralized, and no parameters are shared between robots."""
 
 import pytest
 import torch
@@ -205,40 +205,3 @@ def test_own_only_critic_reads_its_own_observation_and_action(hand_written):
     q = critic(td(obs, act))["agents", "state_action_value"]
     (grad,) = torch.autograd.grad(q[:, 0].sum(), obs)
     assert (grad[:, 1:] == 0).all() and grad[:, 0].abs().sum() > 0
-
-
-@pytest.mark.parametrize("hand_written", [False, True])
-def test_share_followers_is_one_network_told_apart_by_a_first_layer_bias(hand_written):
-    """share_followers: the followers' actor (and critic) is one set of weights; each follower keeps its own
-    first-layer bias (its id); gradients of every follower add up in the shared weights; the leader stays apart."""
-    torch.manual_seed(0)
-    actor = make_actor(N, D, (16, 16), share_followers=True)
-    mlp = actor.module[0]
-    mlp.hand_written = hand_written
-    assert [w.shape[0] for w in mlp.weights] == [2, 2, 2] and mlp.biases[0].shape[0] == N
-    assert sum(p.numel() for p in mlp.parameters()) < sum(p.numel() for p in make_actor(N, D, (16, 16)).parameters())
-    obs = torch.randn(3, 1, D).expand(3, N, D).clone()  # every robot sees the same
-    a = actor(td(obs))["agents", "action"]
-    assert (a[:, 1] - a[:, 2]).abs().max() > 1e-6  # same input, different id
-    h = obs[:, 2]
-    for k, (w, b) in enumerate(zip(mlp.weights, mlp.biases, strict=True)):  # follower 2 by hand: group 1, its bias
-        h = h @ w[1] + b[2 if k == 0 else 1, 0]
-        h = h.relu() if k < 2 else torch.tanh(h)
-    torch.testing.assert_close(a[:, 2], h, atol=1e-5, rtol=1e-5)
-    a[:, 1].sum().backward()
-    g1 = mlp.weights[1].grad.clone()
-    assert g1[0].abs().sum() == 0 and g1[1].abs().sum() > 0  # follower 1 moves the followers' weights only
-    mlp.zero_grad()
-    a = actor(td(obs))["agents", "action"]
-    (a[:, 1].sum() + a[:, 2].sum()).backward()
-    g12 = mlp.weights[1].grad.clone()
-    mlp.zero_grad()
-    actor(td(obs))["agents", "action"][:, 2].sum().backward()
-    torch.testing.assert_close(g12, g1 + mlp.weights[1].grad, atol=1e-5, rtol=1e-5)
-    critic = make_critic(N, D, (16, 16), own_only=(0,), share_followers=True)
-    critic.module.mlp.hand_written = hand_written
-    assert critic.module.mlp.weights[0].shape[0] == 2
-    q = critic(td(obs, torch.rand(3, N, 2) * 2 - 1))["agents", "state_action_value"]
-    assert q.shape == (3, N, 1) and (q[:, 1] - q[:, 2]).abs().max() > 1e-6
-    with pytest.raises(ValueError, match="groups"):
-        PerRobotMLP(N, D, 2, (8,), groups=(0, 2, 2, 2))
