@@ -1,7 +1,7 @@
 """obstacle_curriculum: training obstacles grow to full size; evaluation's are full size throughout."""
 
 import pytest
-from helpers import tiny
+from test_train import tiny
 
 from formation_rl.training.trainer import Trainer
 
