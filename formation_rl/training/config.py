@@ -28,9 +28,6 @@ class TrainConfig:
     #                              starts, ours); evaluation always starts in the default square
     start_team: bool = False  # those starts move the start square, team and all, anywhere in the arena; false: each
     #                           robot anywhere on its own (ours)
-    obstacle_curriculum: int = 0  # frames over which training obstacles grow from obstacle_curriculum_start of their
-    #                               radii to full size (ours; 0: full size from the start); evaluation: full size
-    obstacle_curriculum_start: float = 0.25  # the share of the radii that training obstacles start at
     total_frames: int = 300_000  # frames = transitions of one env copy (reference.md, Algorithms); paper: 9,000,000
     num_envs: int = 64  # env copies stepped together by the collector
     steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames
@@ -89,9 +86,6 @@ def validate(cfg: TrainConfig) -> None:
     check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
     check(cfg.model.leader_critic in ("joint", "own"), "model.leader_critic", cfg.model.leader_critic, "joint or own")
     check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
-    check(cfg.obstacle_curriculum >= 0, "obstacle_curriculum", cfg.obstacle_curriculum, "an integer >= 0")
-    check(0 < cfg.obstacle_curriculum_start <= 1, "obstacle_curriculum_start", cfg.obstacle_curriculum_start,
-          "in (0, 1]")
     check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
     check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")
     check(cfg.steps_per_batch >= 1, "steps_per_batch", cfg.steps_per_batch, "an integer >= 1")

@@ -7,7 +7,6 @@ checkpointing on the way. Everything a resume needs is one :meth:`Trainer.state_
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import random
 import time
@@ -65,7 +64,7 @@ class Trainer:
         a = cfg.algo
         self._seed_everything(cfg.seed)
         dev = torch.device(cfg.device)
-        self.env = FormationEnv(cfg.num_envs, config=copy.deepcopy(cfg.env), device=dev, seed=cfg.seed,
+        self.env = FormationEnv(cfg.num_envs, config=cfg.env, device=dev, seed=cfg.seed,
                                 compile_physics=cfg.compile_env, start_anywhere=cfg.start_anywhere,
                                 start_team=cfg.start_team)
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
@@ -121,7 +120,6 @@ class Trainer:
         learn_from = max(a.batch_size, a.warmup_frames)  # no update before the buffer holds this much
         batches = -(-max(remaining, 1) // per_batch)  # whole collector batches (the last one may overshoot)
         warmup_batches = -(-max(0, a.warmup_frames - self.frames) // per_batch)
-        self._grow_obstacles()  # (before the collector's first reset draws scenarios)
         collector = Collector(
             self.env, self.explore, frames_per_batch=per_batch, total_frames=batches * per_batch,
             init_random_frames=warmup_batches * per_batch, device=cfg.device,
@@ -160,7 +158,6 @@ class Trainer:
                                              f"{self.algo.critic_steps + 1}): {err}; the last good checkpoint "
                                              f"{self.run_dir / CHECKPOINT} is kept") from None
                 self.noise.step(data.numel())
-                self._grow_obstacles()
                 with timings("logging"):
                     latest = self._log_train(finished, losses, latest, start, steps0)
                 if self.frames >= self.next_eval:
@@ -180,17 +177,6 @@ class Trainer:
         self.save_checkpoint()
         self.logger.experiment.flush()
         return final
-
-    def _grow_obstacles(self) -> None:
-        """``obstacle_curriculum``: the training episodes that start from now draw obstacles with radii
-        scaled from ``obstacle_curriculum_start`` (at frame 0) to 1 (at ``obstacle_curriculum`` frames)."""
-        cfg = self.cfg
-        if cfg.obstacle_curriculum <= 0:
-            return
-        s0 = cfg.obstacle_curriculum_start
-        scale = s0 + (1 - s0) * min(1.0, self.frames / cfg.obstacle_curriculum)
-        self.env.config.obstacle_radius_min = cfg.env.obstacle_radius_min * scale
-        self.env.config.obstacle_radius_max = cfg.env.obstacle_radius_max * scale
 
     def _gradient_step(self) -> dict[str, torch.Tensor]:
         with self.timings("buffer_sample"):
