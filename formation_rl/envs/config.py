@@ -62,32 +62,35 @@ class RewardConfig:
 
 @dataclass
 class EnvConfig:
-    """Every quantity of the world, with its default."""
+    """Every quantity of the world, with its default: the one place it is written (conf/env/default.yaml
+    sets nothing). (paper) = Zhou et al. 2023; (choice) = ours where the paper is silent."""
 
-    num_robots: int = 5  # N, index 0 is the leader
-    num_obstacles: int = 4  # M
-    arena_half_size: float = 4.0  # arena is [-a, a]^2
-    robot_radius: float = 0.1  # r
-    mass: float = 1.0  # kg
-    dt: float = 0.1  # s
-    max_force: float = 2.0  # N, force = action * max_force
-    max_speed: float = 0.85  # v_max, m/s
-    obstacle_radius_min: float = 0.4
+    num_robots: int = 5  # N (paper); index 0 is the leader, odd = left followers, even = right
+    num_obstacles: int = 4  # M (paper)
+    arena_half_size: float = 4.0  # arena [-a, a]^2 (paper); centres kept in [-a + r, a - r], velocity into a wall
+    #                               zeroed (choice)
+    robot_radius: float = 0.1  # r (paper)
+    mass: float = 1.0  # kg (choice)
+    dt: float = 0.1  # s (choice)
+    max_force: float = 2.0  # N, force = action * max_force (choice)
+    max_speed: float = 0.85  # v_max, m/s (paper)
+    obstacle_radius_min: float = 0.4  # obstacle radius uniform in (0.4, 0.6) m (paper)
     obstacle_radius_max: float = 0.6
-    obstacle_min_gap: float = 0.5  # surface-to-surface gap between obstacles at placement
-    obstacle_area_x: tuple[float, float] = (-3.0, 3.0)
+    obstacle_min_gap: float = 0.5  # surface-to-surface gap between obstacles at placement (choice)
+    obstacle_area_x: tuple[float, float] = (-3.0, 3.0)  # obstacle area (paper)
     obstacle_area_y: tuple[float, float] = (-2.0, 2.0)
-    goal_low: float = 3.0  # goal uniform in [goal_low, goal_high]^2
+    goal_low: float = 3.0  # goal uniform in [goal_low, goal_high]^2 (paper)
     goal_high: float = 3.5
-    goal_radius: float = 0.05  # rho_g
-    start_low: float = -3.8  # robots uniform in [start_low, start_high]^2
+    goal_radius: float = 0.05  # rho_g (paper)
+    start_low: float = -3.8  # robots uniform in [start_low, start_high]^2, centre distances >= 2r + rho_r, clear of
+    #                          obstacle collision, at rest (choice)
     start_high: float = -2.8
-    max_steps: int = 150  # episode length, ended by truncation
-    robot_collision_margin: float = 0.1  # rho_r
-    obstacle_collision_margin: float = 0.1  # rho_o
-    sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed
-    placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible
-    relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (choice; False: reference.md)
+    max_steps: int = 150  # episode length, ended by truncation only (paper)
+    robot_collision_margin: float = 0.1  # rho_r (paper)
+    obstacle_collision_margin: float = 0.1  # rho_o (paper)
+    sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed (paper)
+    placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible (choice)
+    relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (a departure, docs/departures.md)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 

@@ -19,11 +19,10 @@ def compose_env(*overrides):
         return compose(config_name="rollout", overrides=list(overrides)).env
 
 
-def test_yaml_defaults_equal_dataclass_defaults():
+def test_the_world_defaults_come_from_the_schema_alone():
     assert EnvConfig.from_dict(compose_env()) == EnvConfig()
-    # every world field is written out in conf/env/default.yaml with its comment (the formation has its own group)
-    written = set(OmegaConf.load(Path(CONF) / "env" / "default.yaml").keys())
-    assert {f.name for f in dataclasses.fields(EnvConfig)} - {"formation"} <= written
+    # one source of truth: conf/env/default.yaml writes no value, the schema (EnvConfig) holds them all
+    assert not OmegaConf.load(Path(CONF) / "env" / "default.yaml")
 
 
 def test_formation_and_reward_groups():
