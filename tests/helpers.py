@@ -1,11 +1,21 @@
 """Shared test helpers: a plain module, importable because tests/conftest.py puts tests/ on sys.path."""
 
+import subprocess
+import sys
 from pathlib import Path
 
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from formation_rl.envs import EnvConfig
 from formation_rl.training.config import TrainConfig
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_module(module: str, *args: str) -> subprocess.CompletedProcess:
+    """``python -m module args...`` from the repository root, output captured (a command test's call)."""
+    return subprocess.run([sys.executable, "-m", module, *args], cwd=ROOT, capture_output=True, text=True,
+                          timeout=600)
 
 
 def tiny(algo="per_matd3", frames=2400, **kw) -> TrainConfig:

@@ -11,13 +11,9 @@ from pathlib import Path
 
 import pytest
 import torch
+from helpers import run_module as _cli
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def _cli(module, *args):
-    return subprocess.run([sys.executable, "-m", module, *args], cwd=ROOT, capture_output=True, text=True,
-                          timeout=600)
 
 
 def test_eval_cli_writes_json_and_csv(trained, tmp_path):

@@ -1,15 +1,6 @@
 """formation_rl.apps.render: the GIF and Figure 10, and its step check."""
 
-import subprocess
-import sys
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _cli(module, *args):
-    return subprocess.run([sys.executable, "-m", module, *args], cwd=ROOT, capture_output=True, text=True,
-                          timeout=600)
+from helpers import run_module as _cli
 
 
 def test_render_cli_writes_gif_and_figure_10(trained, tmp_path):
