@@ -1,7 +1,7 @@
 """Typed configuration of the formation world (docs/reference.md, World to Rewards).
 
-The YAML files under ``conf/`` carry the same defaults with their provenance (paper / choice);
-``tests/envs/test_config.py`` checks that the two never drift apart.
+The defaults are written here only, each marked (paper) or (choice); ``conf/env/default.yaml`` sets
+none (``tests/envs/test_config.py`` keeps it so), and the formation and reward groups choose variants.
 """
 
 from __future__ import annotations
