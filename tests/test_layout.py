@@ -6,9 +6,14 @@ import sys
 from pathlib import Path
 
 import pytest
+from helpers import run_module
 
 PACKAGE = Path(__file__).resolve().parents[1] / "formation_rl"
 TRAINING_APPS = {"formation_rl.apps.train", "formation_rl.apps.tune"}
+# the entry points documented before the apps moved (python -m formation_rl.<old>) -> the app each runs
+OLD_ENTRY_POINTS = {"train": "train", "evaluate": "evaluate", "rollout": "demo", "visualize": "render",
+                    "report": "report", "diagnose": "diagnose", "ceiling": "ceiling", "tune": "tune"}
+SHIMS = {f"formation_rl.{old}" for old in OLD_ENTRY_POINTS}
 
 
 def _module(path: Path) -> str:
@@ -39,6 +44,10 @@ def _under(name: str, package: str) -> bool:
 def test_import_rules(module):
     imports = MODULES[module]
     training = sorted(i for i in imports if _under(i, "formation_rl.training"))
+    if module in SHIMS:  # a shim imports its app and nothing else
+        assert imports <= {f"formation_rl.apps.{OLD_ENTRY_POINTS[module.split('.')[-1]]}",
+                            f"formation_rl.apps.{OLD_ENTRY_POINTS[module.split('.')[-1]]}.main"}, imports
+        return
     if not _under(module, "formation_rl.training") and module not in TRAINING_APPS:
         assert not training, f"{module} imports {training}: only the train and tune apps may"
     apps = sorted(i for i in imports if _under(i, "formation_rl.apps"))
@@ -56,3 +65,12 @@ def test_loading_a_policy_loads_no_training_code():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("old", sorted(OLD_ENTRY_POINTS))
+def test_old_entry_points_run_their_app(old):
+    """python -m formation_rl.<old> composes the same config as the app it now lives in."""
+    shim, app = run_module(f"formation_rl.{old}", "--cfg", "job"), run_module(
+        f"formation_rl.apps.{OLD_ENTRY_POINTS[old]}", "--cfg", "job")
+    assert shim.returncode == 0 and app.returncode == 0, (shim.stderr + app.stderr)[-2000:]
+    assert shim.stdout == app.stdout and shim.stdout.strip()

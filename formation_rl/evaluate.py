@@ -1,0 +1,7 @@
+"""`python -m formation_rl.evaluate`: the entry point as documented before the apps moved, kept so users' scripts
+run unchanged; the app is :mod:`formation_rl.apps.evaluate` (same config, same outputs)."""
+
+from formation_rl.apps.evaluate import main
+
+if __name__ == "__main__":
+    main()
