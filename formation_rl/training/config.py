@@ -28,8 +28,6 @@ class TrainConfig:
     #                              starts, ours); evaluation always starts in the default square
     start_team: bool = False  # those starts move the start square, team and all, anywhere in the arena; false: each
     #                           robot anywhere on its own (ours)
-    episode_steps: int | None = None  # training episodes end (truncated, bootstrapped) after this many steps, for
-    #                                   more starts per frame (ours); None: env.max_steps. Evaluation runs max_steps
     total_frames: int = 300_000  # frames = transitions of one env copy (reference.md, Algorithms); paper: 9,000,000
     num_envs: int = 64  # env copies stepped together by the collector
     steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames
@@ -88,8 +86,6 @@ def validate(cfg: TrainConfig) -> None:
     check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
     check(cfg.model.leader_critic in ("joint", "own"), "model.leader_critic", cfg.model.leader_critic, "joint or own")
     check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
-    check(cfg.episode_steps is None or 1 <= cfg.episode_steps <= cfg.env.max_steps, "episode_steps",
-          cfg.episode_steps, f"null or an integer in [1, env.max_steps ({cfg.env.max_steps})]")
     check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
     check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")
     check(cfg.steps_per_batch >= 1, "steps_per_batch", cfg.steps_per_batch, "an integer >= 1")

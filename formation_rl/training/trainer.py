@@ -64,8 +64,7 @@ class Trainer:
         a = cfg.algo
         self._seed_everything(cfg.seed)
         dev = torch.device(cfg.device)
-        train_world = cfg.env if cfg.episode_steps is None else dataclasses.replace(cfg.env, max_steps=cfg.episode_steps)
-        self.env = FormationEnv(cfg.num_envs, config=train_world, device=dev, seed=cfg.seed,
+        self.env = FormationEnv(cfg.num_envs, config=cfg.env, device=dev, seed=cfg.seed,
                                 compile_physics=cfg.compile_env, start_anywhere=cfg.start_anywhere,
                                 start_team=cfg.start_team)
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
