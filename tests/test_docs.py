@@ -54,3 +54,12 @@ def test_relative_links_resolve(doc):
             elif anchor and dest.suffix == ".md" and anchor not in _anchors(dest):
                 broken.append(f"{target}: no heading #{anchor} in {dest.relative_to(ROOT)}")
     assert not broken, broken
+
+
+def test_every_results_folder_has_a_readme_and_is_indexed():
+    """docs/results/: each experiment folder says what it is (README.md) and the index lists it."""
+    results = ROOT / "docs" / "results"
+    index = (results / "README.md").read_text()
+    folders = sorted(p.name for p in results.iterdir() if p.is_dir())
+    assert [f for f in folders if not (results / f / "README.md").exists()] == []
+    assert [f for f in folders if f"]({f}/README.md)" not in index] == []
