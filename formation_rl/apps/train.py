@@ -43,5 +43,5 @@ if __name__ == "__main__":
     from formation_rl.apps.cli import check_overrides
     from formation_rl.training.config import TrainConfig
 
-    check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "env"))
+    check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "recipe", "env"))
     main()

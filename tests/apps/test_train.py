@@ -98,3 +98,24 @@ def test_fast_budget_composes_to_the_residual_recipe():
     assert cfg.model.residual == "apf" and cfg.algo.bc_weight > 0
     assert cfg.env.relative_positions and cfg.total_frames == 60_000
 
+
+
+def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing():
+    """recipe=team brings the kept learning choices and its own budget; the default recipe (paper) adds nothing."""
+    from hydra import compose, initialize_config_dir
+    from omegaconf import OmegaConf
+
+    from formation_rl.training.config import register, validate
+    from formation_rl.training.trainer import to_train_config
+
+    register()
+    with initialize_config_dir(str(Path(__file__).resolve().parents[2] / "formation_rl" / "conf"), version_base=None):
+        paper = compose("config", overrides=["budget=paper"])
+        paper_explicit = compose("config", overrides=["budget=paper", "recipe=paper"])
+        team = to_train_config(compose("config", overrides=["recipe=team", "budget=paper"]))
+    assert OmegaConf.to_yaml(paper) == OmegaConf.to_yaml(paper_explicit)
+    validate(team)
+    assert team.env.reward.variant == "hybrid" and team.env.reward.leader_progress == 1.0  # reward=shaped
+    assert (team.env.reward.goal, team.env.reward.robot_collision, team.env.reward.leader_robot_collision) == (50, -50, 0)
+    assert team.algo.gamma == 0.995 and team.model.leader_critic == "own" and team.start_team
+    assert team.total_frames == 250_000 and team.algo.update_every == 10  # its own budget wins over budget=paper
