@@ -90,7 +90,6 @@ class EnvConfig:
     obstacle_collision_margin: float = 0.1  # rho_o (paper)
     sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed (paper)
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible (choice)
-    leader_sees_team: bool = False  # probe: the leader also sees p_j - p_0 of every follower (role block 2 wider)
     relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (a departure, docs/departures.md)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
@@ -98,7 +97,7 @@ class EnvConfig:
     @property
     def obs_dim(self) -> int:
         """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions)."""
-        return 4 + 2 * (self.num_robots - 1) + 2 * self.leader_sees_team + 3 * self.num_obstacles + 1
+        return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1
 
     @property
     def area_formation(self) -> FormationConfig:

@@ -57,7 +57,7 @@ class FormationEnv(EnvBase):
         n, m, d = cfg.num_robots, cfg.num_obstacles, cfg.obs_dim
         self._make_specs(b, n, m, d)
         self._geom = Geometry.build(cfg, self.device)
-        self._obs_index = world.observation_index(n, m, self.device, cfg.leader_sees_team)
+        self._obs_index = world.observation_index(n, m, self.device)
         self._advance = torch.compile(self._advance_eager) if compile_physics else self._advance_eager
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(int(torch.randint(2**62, ())) if seed is None else seed)
@@ -127,9 +127,6 @@ class FormationEnv(EnvBase):
         obs = world.observe(pos, vel, q, self._obs_index)  # [B, N, D]
         if self.config.relative_positions:
             obs = world.make_relative(obs)
-        if self.config.leader_sees_team:  # PROBE: the leader sees p_j - p_0
-            n = obs.shape[-2]
-            obs[..., 0, 6:6 + 2 * (n - 1)].unflatten(-1, (n - 1, 2)).sub_(obs[..., 0, None, 0:2])
         return {
             "observation": obs,
             "reward": q["reward"].T.unsqueeze(-1).contiguous(),  # [B, N, 1]

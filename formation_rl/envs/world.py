@@ -160,22 +160,17 @@ def _source_rows(n: int, m: int) -> tuple[int, ...]:
     return P, V, G, Z, OX, OY, S, F, F + 1
 
 
-def observation_index(n: int, m: int, device=None, team: bool = False) -> torch.Tensor:
+def observation_index(n: int, m: int, device=None) -> torch.Tensor:
     """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``."""
     P, V, G, Z, OX, OY, S, F, _ = _source_rows(n, m)
     rows = []
     for i in range(n):
         row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
         if i == 0:
-            if team:
-                row += [G, G + 1] + [x for k in range(1, n) for x in (P + k, P + n + k)]
-            else:
-                row += [G, G + 1] + [Z] * (2 * (n - 2))  # leader: p - p_g, then zeros
+            row += [G, G + 1] + [Z] * (2 * (n - 2))  # leader: p - p_g, then zeros
         else:
             for k in (j if j < i else j + 1 for j in range(n - 1)):  # other robots in index order
                 row += [P + k, P + n + k]
-            if team:
-                row += [Z, Z]
         for j in range(m):
             row += [OX + i * m + j, OY + i * m + j, S + i * m + j]  # (p - c_j, 1) if sensed
         rows += row + [F]
