@@ -90,7 +90,6 @@ class EnvConfig:
     obstacle_collision_margin: float = 0.1  # rho_o (paper)
     sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed (paper)
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible (choice)
-    obstacle_surface: bool = False  # probe: sensed obstacles at p - (nearest point of their surface), not p - centre
     relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (a departure, docs/departures.md)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)

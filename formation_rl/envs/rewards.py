@@ -147,8 +147,7 @@ def step_quantities(
 
     return {
         "reward": reward,
-        "to_obstacle": (ox, oy) if not cfg.obstacle_surface else (ox * ((gap + r) / (gap + r + radii[None])),
-                                                                    oy * ((gap + r) / (gap + r + radii[None]))),
+        "to_obstacle": (ox, oy),
         "sensed": sensed,
         "to_goal": to_goal,
         "in_area": in_area,
