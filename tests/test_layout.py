@@ -58,6 +58,7 @@ def test_import_rules(module):
         assert not apps, f"library module {module} imports an app: {apps}"
 
 
+@pytest.mark.integration
 def test_loading_a_policy_loads_no_training_code():
     code = ("import sys, formation_rl; formation_rl.load_policy('apf'); formation_rl.load_policy("
             f"{str(PACKAGE.parent / 'pretrained' / 'per_matd3_fast.pt')!r}); import formation_rl.evaluation; "
@@ -67,6 +68,7 @@ def test_loading_a_policy_loads_no_training_code():
     assert out.stdout.strip() == "[]"
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("old", sorted(OLD_ENTRY_POINTS))
 def test_old_entry_points_run_their_app(old):
     """python -m formation_rl.<old> composes the same config as the app it now lives in."""

@@ -63,6 +63,7 @@ def test_apf_adapts_to_other_worlds():
     assert per["UDBLT"].median() <= 0.2
 
 
+@pytest.mark.integration
 def test_make_eval_apf_writes_metrics(tmp_path):
     run = subprocess.run([sys.executable, "-m", "formation_rl.apps.evaluate", "ckpt=apf", "episodes=20",
                           f"out={tmp_path}"], cwd=ROOT, capture_output=True, text=True, timeout=300)
