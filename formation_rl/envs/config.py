@@ -55,9 +55,6 @@ class RewardConfig:
     own_progress: bool = False  # follower_progress counts the follower's own move only: its error with the others
     #                             where they are now, from where it was to where it is (a difference reward, ours);
     #                             false: the change of its error, whoever moved
-    area_speed: float = 0.0  # probe: leader guided -= area_speed * max(0, speed - area_speed_limit) (m/s) while it is
-    #                          inside the obstacle area: a speed limit where obstacles may appear (ours)
-    area_speed_limit: float = 0.65  # m/s (the classical controller's cruise speed over the area)
     leader_robot_collision: float = 1.0  # the leader's share of R5 (ours; 1: the paper). 0: followers alone answer
     #                                      for robot contacts, and a contact leaves the leader's guided term in place;
     #                                      it scales the robot part of the leader's proximity ramp too

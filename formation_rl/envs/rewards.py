@@ -141,9 +141,6 @@ def step_quantities(
         unit = cfg.max_speed * cfg.dt  # the most a robot moves in a step
         guided[1:] += (prev_follower_err[1:] - follower_err[1:]) * (rw.follower_progress / unit)
         guided[0] += (prev_goal_dist - goal_dist) * (rw.leader_progress / unit)
-    if rw.area_speed and prev_pos is not None:  # the leader's speed limit over the obstacle area
-        speed = _norm(pos[:, 0] - prev_pos[:, 0]) / cfg.dt  # [B], the step's velocity (semi-implicit Euler)
-        guided[0] -= rw.area_speed * (speed - rw.area_speed_limit).clamp_(min=0) * in_area
     reward = torch.where(positive | obstacle_hit | robot_event, sparse, guided)  # [N, B]
     if rw.scale != 1.0:
         reward = reward * rw.scale
