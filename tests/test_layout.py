@@ -71,8 +71,9 @@ def test_loading_a_policy_loads_no_training_code():
 @pytest.mark.integration
 @pytest.mark.parametrize("old", sorted(OLD_ENTRY_POINTS))
 def test_old_entry_points_run_their_app(old):
-    """python -m formation_rl.<old> composes the same config as the app it now lives in."""
-    shim, app = run_module(f"formation_rl.{old}", "--cfg", "job"), run_module(
-        f"formation_rl.apps.{OLD_ENTRY_POINTS[old]}", "--cfg", "job")
+    """python -m formation_rl.<old> composes the same config as the app it now lives in, Hydra's included
+    (job name, run directory, log file: the same outputs)."""
+    shim, app = run_module(f"formation_rl.{old}", "--cfg", "all"), run_module(
+        f"formation_rl.apps.{OLD_ENTRY_POINTS[old]}", "--cfg", "all")
     assert shim.returncode == 0 and app.returncode == 0, (shim.stderr + app.stderr)[-2000:]
     assert shim.stdout == app.stdout and shim.stdout.strip()
