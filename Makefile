@@ -15,7 +15,7 @@ empty :=
 comma := ,
 hydra_list = [$(subst $(empty) $(empty),$(comma),$(strip $(1)))]
 
-.PHONY: tune help setup train train-paper train-fast eval diagnose ceiling render sweep compare tensorboard demo test test-integration check test-slow bench-env bench bench-gpu lint clean
+.PHONY: tune help setup train train-paper train-fast eval diagnose ceiling render sweep compare tensorboard demo test test-integration test-slow bench-env bench bench-gpu lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -70,8 +70,6 @@ test: $(PY)  ## the unit tests (in-process, a few minutes)
 
 test-integration: $(PY)  ## the integration tests: commands in subprocesses, kill -9, the wheel, the shipped policies
 	$(PY) -m pytest -q -m "integration and not slow"
-
-check: test test-integration  ## every test CI runs: the unit tests, then the integration tests
 
 test-slow: $(PY)  ## the long checks marked slow (10^6 random steps ...)
 	$(PY) -m pytest -q -m slow

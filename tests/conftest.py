@@ -12,7 +12,7 @@ INTEGRATION = ("apps/", "test_faults.py", "test_wheel.py", "test_makefile.py", "
 
 def pytest_collection_modifyitems(items):
     for item in items:
-        if Path(item.fspath).resolve().relative_to(TESTS).as_posix().startswith(INTEGRATION):
+        if item.path.resolve().relative_to(TESTS).as_posix().startswith(INTEGRATION):
             item.add_marker(pytest.mark.integration)
 
 

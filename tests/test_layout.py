@@ -45,8 +45,8 @@ def test_import_rules(module):
     imports = MODULES[module]
     training = sorted(i for i in imports if _under(i, "formation_rl.training"))
     if module in SHIMS:  # a shim imports its app and nothing else
-        assert imports <= {f"formation_rl.apps.{OLD_ENTRY_POINTS[module.split('.')[-1]]}",
-                            f"formation_rl.apps.{OLD_ENTRY_POINTS[module.split('.')[-1]]}.main"}, imports
+        app = f"formation_rl.apps.{OLD_ENTRY_POINTS[module.split('.')[-1]]}"
+        assert imports <= {app, f"{app}.main"}, imports
         return
     if not _under(module, "formation_rl.training") and module not in TRAINING_APPS:
         assert not training, f"{module} imports {training}: only the train and tune apps may"

@@ -99,7 +99,6 @@ def test_fast_budget_composes_to_the_residual_recipe():
     assert cfg.env.relative_positions and cfg.total_frames == 60_000
 
 
-
 def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing():
     """recipe=team brings the kept learning choices and its own budget; the default recipe (paper) adds nothing."""
     from hydra import compose, initialize_config_dir
@@ -109,7 +108,7 @@ def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing(
     from formation_rl.training.trainer import to_train_config
 
     register()
-    with initialize_config_dir(str(Path(__file__).resolve().parents[2] / "formation_rl" / "conf"), version_base=None):
+    with initialize_config_dir(str(ROOT / "formation_rl" / "conf"), version_base=None):
         paper = compose("config", overrides=["budget=paper"])
         paper_explicit = compose("config", overrides=["budget=paper", "recipe=paper"])
         team = to_train_config(compose("config", overrides=["recipe=team", "budget=paper"]))
