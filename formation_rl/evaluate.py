@@ -1,7 +1,7 @@
 """`python -m formation_rl.evaluate`: the entry point as documented before the apps moved, kept so users' scripts
-run unchanged; the app is :mod:`formation_rl.apps.evaluate` (same config, same outputs)."""
+run unchanged; it runs :mod:`formation_rl.apps.evaluate` as `python -m` would (its one-line checks, config, outputs)."""
 
-from formation_rl.apps.evaluate import main
+import runpy
 
 if __name__ == "__main__":
-    main()
+    runpy.run_module("formation_rl.apps.evaluate", run_name="__main__", alter_sys=True)

@@ -1,7 +1,7 @@
 """`python -m formation_rl.rollout`: the entry point as documented before the apps moved, kept so users' scripts
-run unchanged; the app is :mod:`formation_rl.apps.demo` (same config, same outputs)."""
+run unchanged; it runs :mod:`formation_rl.apps.demo` as `python -m` would (its one-line checks, config, outputs)."""
 
-from formation_rl.apps.demo import main
+import runpy
 
 if __name__ == "__main__":
-    main()
+    runpy.run_module("formation_rl.apps.demo", run_name="__main__", alter_sys=True)
