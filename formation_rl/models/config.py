@@ -16,6 +16,3 @@ class ModelConfig:
     leader_critic: str = "joint"  # joint: the paper's centralized critic for every robot | own: the leader's critic
     #                               reads its own observation and action only (ours; for rewards where the leader
     #                               answers for nothing the followers do, env.reward.leader_robot_collision=0)
-    follower_critic: str = "joint"  # joint: the paper's | local: a follower's critic reads its own observation, every
-    #                                 other robot's velocity and every action (ours: the rest of the joint input is
-    #                                 what its own observation already holds, in absolute coordinates)

@@ -239,25 +239,20 @@ class CentralizedCritic(nn.Module):
     """
 
     def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu", own_only: tuple[int, ...] = (), local: tuple[int, ...] = ()):
+                 activation: str = "relu", own_only: tuple[int, ...] = ()):
         super().__init__()
         n, d = num_robots, obs_dim
         # critic i's first-layer input: every observation (N*D), then every action (N*2)
         self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation)
         mask = None
-        if own_only or local:
+        if own_only:
             mask = torch.ones(n, n * (d + action_dim), 1)
-            for i in (*own_only, *local):
+            for i in own_only:
                 mask[i] = 0.0
                 mask[i, i * d:(i + 1) * d] = 1.0
                 mask[i, n * d + i * action_dim:n * d + (i + 1) * action_dim] = 1.0
-            for i in local:  # + every other robot's velocity (its observation's columns 2-3) and every action
-                for j in range(n):
-                    mask[i, j * d + 2:j * d + 4] = 1.0
-                mask[i, n * d:] = 1.0
             with torch.no_grad():  # nn.Linear's initialisation for the fan-in the robot really has
-                for i in (*own_only, *local):
-                    self.mlp.weights[0][i] *= math.sqrt(mask.shape[1] / mask[i].sum())
+                self.mlp.weights[0][list(own_only)] *= math.sqrt(n)
         self.register_buffer("input_mask", mask)  # None: every critic reads everything
 
     def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
@@ -341,11 +336,11 @@ def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str
 
 
 def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
-                own_only: tuple[int, ...] = (), local: tuple[int, ...] = ()) -> ValueOperator:
+                own_only: tuple[int, ...] = ()) -> ValueOperator:
     """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``
     (``own_only``: see :class:`CentralizedCritic`)."""
     return ValueOperator(
-        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only), tuple(local)),
+        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only)),
         in_keys=[("agents", "observation"), ("agents", "action")],
         out_keys=[("agents", "state_action_value")],
     )

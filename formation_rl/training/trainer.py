@@ -72,8 +72,7 @@ class Trainer:
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
                                 residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation,
-                             own_only=(0,) if cfg.model.leader_critic == "own" else (),
-                             local=tuple(range(1, n)) if cfg.model.follower_critic == "local" else ()).to(dev)
+                             own_only=(0,) if cfg.model.leader_critic == "own" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
@@ -272,7 +271,6 @@ class Trainer:
             ("env.num_obstacles", self.cfg.env.num_obstacles, saved["env"]["num_obstacles"]),
             ("model.hidden", list(self.cfg.model.hidden), list(saved["model"]["hidden"])),
             ("model.leader_critic", self.cfg.model.leader_critic, saved["model"].get("leader_critic", "joint")),
-            ("model.follower_critic", self.cfg.model.follower_critic, saved["model"].get("follower_critic", "joint")),
         ):
             if now != then:
                 raise ValueError(f"resume: {name} = {now!r} but the checkpoint has {then!r}; they must match")

@@ -211,25 +211,3 @@ def test_own_only_leader_critic_stays_own_only_through_updates():
     q1 = q_values(algo, algo.loss.qvalue_network_params, other)
     torch.testing.assert_close(q1[..., 0], q0[..., 0])  # leader: unchanged
     assert ((q1[..., 1:] - q0[..., 1:]).abs() > 1e-6).any()
-
-
-def test_local_follower_critics_read_own_observation_velocities_and_actions_only():
-    """model.follower_critic=local: after updates a follower's critic still ignores the other robots' observations
-    except their velocities (columns 2-3), and reads every action."""
-    cfg = AlgoConfig(name="matd3", policy_delay=1)
-    algo = MATD3(make_actor(N, D, (16, 16)), make_critic(N, D, (16, 16), local=tuple(range(1, N))), cfg)
-    for _ in range(3):
-        algo.update(make_batch())
-    td = make_batch()
-    q0 = q_values(algo, algo.loss.qvalue_network_params, td)  # [C, B, N]
-    hidden = td.clone()  # robot 1's critic: robot 2's observation changed outside its velocity
-    hidden["agents", "observation"][:, 2, :2] += 1.0
-    hidden["agents", "observation"][:, 2, 4:] += 1.0
-    torch.testing.assert_close(q_values(algo, algo.loss.qvalue_network_params, hidden)[..., 1], q0[..., 1])
-    for change in ("velocity", "action"):
-        seen = td.clone()
-        if change == "velocity":
-            seen["agents", "observation"][:, 2, 2:4] += 1.0
-        else:
-            seen["agents", "action"][:, 2] *= -1
-        assert ((q_values(algo, algo.loss.qvalue_network_params, seen)[..., 1] - q0[..., 1]).abs() > 1e-6).any()
