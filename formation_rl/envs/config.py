@@ -52,16 +52,12 @@ class RewardConfig:
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
     scale: float = 1.0  # every reward (guided and sparse) times this
-    goal_final: float = 0.0  # R1 at the deadline (ours): paid to the leader on top of its reward at the last step if it
-    #                          is within goal_radius then (success's own clause); Markov with env.observe_time only
     own_progress: bool = False  # follower_progress counts the follower's own move only: its error with the others
     #                             where they are now, from where it was to where it is (a difference reward, ours);
     #                             false: the change of its error, whoever moved
     leader_robot_collision: float = 1.0  # the leader's share of R5 (ours; 1: the paper). 0: followers alone answer
     #                                      for robot contacts, and a contact leaves the leader's guided term in place;
     #                                      it scales the robot part of the leader's proximity ramp too
-    leader_obstacle_collision: float = 1.0  # the leader's share of R4 (ours; 1: the paper): followers may pay more for
-    #                                         an obstacle contact than the leader, whose route a high R4 turns round
 
 
 @dataclass
@@ -95,15 +91,13 @@ class EnvConfig:
     sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed (paper)
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible (choice)
     relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (a departure, docs/departures.md)
-    observe_time: bool = False  # every robot also sees t / max_steps, one more column at the end (ours): the deadline
-    #                             in the state, so training ends the value at the last step (no bootstrap past it)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @property
     def obs_dim(self) -> int:
         """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions)."""
-        return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1 + int(self.observe_time)
+        return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1
 
     @property
     def area_formation(self) -> FormationConfig:
@@ -149,7 +143,6 @@ class EnvConfig:
         _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.relative_positions, "relative_positions", lambda v: isinstance(v, bool), "true or false")
-        _check(self.observe_time, "observe_time", lambda v: isinstance(v, bool), "true or false")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")
         for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):
@@ -186,13 +179,11 @@ class EnvConfig:
             _check_formation(r.area_formation, "reward.area_formation")
         for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
                      "leader_distance", "leader_progress", "follower_error", "follower_progress", "leader_team",
-                     "proximity", "goal_final"):
+                     "proximity"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")
         _check(r.own_progress, "reward.own_progress", lambda v: isinstance(v, bool), "true or false")
-        _check(r.leader_obstacle_collision, "reward.leader_obstacle_collision", lambda v: _finite(v) and 0 <= v <= 1,
-               "a number in [0, 1]")
         _check(r.leader_robot_collision, "reward.leader_robot_collision", lambda v: _finite(v) and 0 <= v <= 1,
                "a number in [0, 1]")
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")

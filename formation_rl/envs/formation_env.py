@@ -147,11 +147,7 @@ class FormationEnv(EnvBase):
 
     def _pack(self, m: dict[str, torch.Tensor], rewards: bool) -> TensorDict:
         b, n = self.num_envs, self.config.num_robots
-        obs = m["observation"]
-        if self.config.observe_time:  # t / max_steps, the same for every robot of a copy, as the last column
-            t = (self._steps.to(obs.dtype) / self.config.max_steps).view(b, 1, 1).expand(b, n, 1)
-            obs = torch.cat([obs, t], -1)
-        agents = {"observation": obs}
+        agents = {"observation": m["observation"]}
         if rewards:
             agents["reward"] = m["reward"]
         out = {
@@ -172,12 +168,8 @@ class FormationEnv(EnvBase):
         action = tensordict.get(("agents", "action")).detach()
         w["pos"], w["vel"], measured = self._advance(w["pos"], w["vel"], action, w["goal"], w["centers"], w["radii"])
         self._steps += 1
-        truncated = (self._steps >= self.config.max_steps).unsqueeze(-1)  # [B, 1]
-        rw = self.config.reward
-        if rw.goal_final:  # the leader within goal_radius at the last step (success's clause), once per episode
-            final = truncated & (measured["goal_distance"] <= self.config.goal_radius)  # [B, 1]
-            measured["reward"][:, 0] += final * (rw.goal_final * rw.scale)
         out = self._pack(measured, rewards=True)
+        truncated = (self._steps >= self.config.max_steps).unsqueeze(-1)  # [B, 1]
         out.set("truncated", truncated)
         out.set("terminated", torch.zeros_like(truncated))
         out.set("done", truncated.clone())

@@ -120,15 +120,10 @@ def step_quantities(
     positive_value[0] = rw.goal
     r5, robot_event = rw.robot_collision, robot_hit  # R5, and the contacts whose event replaces the guided term
     if rw.leader_robot_collision != 1.0:  # the leader's share of R5; at 0 its contacts are no event for it
-        r5 = torch.full((n, 1), float(rw.robot_collision), device=pos.device)
+        r5 = torch.full((n, 1), rw.robot_collision, device=pos.device)
         r5[0] *= rw.leader_robot_collision
         robot_event = robot_hit & (r5 != 0)
-    r4, obstacle_event = rw.obstacle_collision, obstacle_hit  # R4, and the contacts whose event replaces guided
-    if rw.leader_obstacle_collision != 1.0:  # the leader's share of R4; at 0 its contacts are no event for it
-        r4 = torch.full((n, 1), float(rw.obstacle_collision), device=pos.device)
-        r4[0] *= rw.leader_obstacle_collision
-        obstacle_event = obstacle_hit & (r4 != 0)
-    sparse = positive * positive_value + obstacle_hit * r4 + robot_hit * r5
+    sparse = positive * positive_value + obstacle_hit * rw.obstacle_collision + robot_hit * r5
     guided = follower_err * -rw.follower_error
     guided[0] = goal_dist * -rw.leader_distance
     if rw.leader_team:
@@ -146,7 +141,7 @@ def step_quantities(
         unit = cfg.max_speed * cfg.dt  # the most a robot moves in a step
         guided[1:] += (prev_follower_err[1:] - follower_err[1:]) * (rw.follower_progress / unit)
         guided[0] += (prev_goal_dist - goal_dist) * (rw.leader_progress / unit)
-    reward = torch.where(positive | obstacle_event | robot_event, sparse, guided)  # [N, B]
+    reward = torch.where(positive | obstacle_hit | robot_event, sparse, guided)  # [N, B]
     if rw.scale != 1.0:
         reward = reward * rw.scale
 

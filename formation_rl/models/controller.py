@@ -77,8 +77,7 @@ class APFController(nn.Module):
         p, v = obs[..., 0:2], obs[..., 2:4]
         role = obs[..., 4:4 + 2 * (n - 1)]
         obst = obs[..., 4 + 2 * (n - 1):4 + 2 * (n - 1) + 3 * m].unflatten(-1, (m, 3))  # [..., N, M, 3]
-        area = 4 + 2 * (n - 1) + 3 * m  # the obstacle-area flag (env.observe_time puts the time after it)
-        flag = obs[..., area:area + 1] > 0.5
+        flag = obs[..., -1:] > 0.5
         return p, v, role, obst, flag
 
     @staticmethod

@@ -61,13 +61,3 @@ def to_transitions(batch: TensorDictBase) -> TensorDictBase:
         batch.set("steps_to_next_obs", steps.reshape(*shape[:2], 1, 1).expand(shape))
         keys.append("steps_to_next_obs")
     return batch.select(*keys).reshape(-1)
-
-
-def end_at_deadline(batch: TensorDictBase) -> TensorDictBase:
-    """Transitions whose next observation is the episode's last (time column, ``env.observe_time``, at 1) marked
-    terminated: with the time in the state the deadline is a true end, so nothing is bootstrapped past it. On the
-    collector batch after ``MultiStep``, which gathers the n-th next observation but keeps the first step's flags."""
-    nxt = batch.get("next")
-    last = nxt.get(("agents", "observation"))[..., 0, -1] >= 1.0  # [B, T]
-    nxt.set("terminated", nxt.get("terminated") | last.unsqueeze(-1))
-    return batch

@@ -39,7 +39,7 @@ from formation_rl.training.checkpoint import (
     resolve_checkpoint,
 )
 from formation_rl.training.config import TrainConfig, validate
-from formation_rl.training.replay import end_at_deadline, make_replay_buffer, to_transitions
+from formation_rl.training.replay import make_replay_buffer, to_transitions
 from formation_rl.training.timing import Timings
 
 
@@ -145,10 +145,7 @@ class Trainer:
                     finished = self.tracker.update(data)
                     self.episodes += finished["length"].numel()
                 with timings("buffer_extend"):
-                    steps = data if self.multistep is None else self.multistep(data)
-                    if cfg.env.observe_time:  # the deadline is in the state: no value past the last step
-                        steps = end_at_deadline(steps)
-                    self.buffer.extend(to_transitions(steps))
+                    self.buffer.extend(to_transitions(data if self.multistep is None else self.multistep(data)))
                 # one gradient step (every robot at once) per update_every collected frames
                 credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
                 losses = []

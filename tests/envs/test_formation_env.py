@@ -258,31 +258,3 @@ def test_start_team_moves_the_start_square_with_the_team():
     assert not env.reset()["obstacle_collision"].any()
     single = FormationEnv(256, config=cfg, seed=0, start_anywhere=1.0).reset()["state", "positions"]
     assert ((single.amax(1) - single.amin(1)) > side + 1e-5).any()  # without it, robots spread apart
-
-
-def test_observe_time_appends_the_clock_and_goal_final_pays_the_leader_at_the_deadline():
-    """env.observe_time: t / max_steps as every robot's last column; reward.goal_final: the leader's bonus at the last
-    step when it is within goal_radius then, nothing before and nothing for a leader off the goal."""
-    cfg = EnvConfig(num_robots=2, num_obstacles=1, observe_time=True, max_steps=4)
-    cfg.reward.goal_final = 100.0
-    env = FormationEnv(2, config=cfg, seed=0)
-    check_env_specs(env)
-    plain = FormationEnv(2, config=EnvConfig(num_robots=2, num_obstacles=1, max_steps=4), seed=0)
-    state = dict(positions=[[[3.2, 3.2], [2.5, 2.5]], [[0.0, 0.0], [0.5, 0.5]]], velocities=[[[0.0, 0.0]] * 2] * 2,
-                 goal=[[3.2, 3.2], [3.2, 3.2]], obstacle_centers=[[[-1.0, 0.0]], [[-1.0, 0.0]]], obstacle_radii=[[0.5], [0.5]])
-    obs = env.set_world_state(**state, steps=0)["agents", "observation"]
-    ref = plain.set_world_state(**state, steps=0)["agents", "observation"]
-    assert obs.shape[-1] == cfg.obs_dim == ref.shape[-1] + 1
-    assert torch.equal(obs[..., :-1], ref) and torch.all(obs[..., -1] == 0)
-    td = env.full_action_spec.zero()
-    for t in range(1, 5):
-        out = env.step(td.clone())["next"]
-        ref_out = plain.step(td.clone())["next"]
-        assert torch.all(out["agents", "observation"][..., -1] == t / 4)
-        bonus = out["agents", "reward"] - ref_out["agents", "reward"]
-        expect = torch.zeros(2, 2, 1)
-        if t == 4:
-            expect[0, 0] = 100.0  # copy 0's leader sits on the goal at the deadline; copy 1's is 4.5 m away
-        assert torch.equal(bonus, expect), t
-    with pytest.raises(ValueError, match="observe_time"):
-        EnvConfig(observe_time=1).validate()

@@ -1,7 +1,6 @@
 """formation_rl.training.replay: TorchRL's uniform and prioritized buffers, collector batches as transitions."""
 
 import torch
-from tensordict import TensorDict
 from algorithms.conftest import D, N, make_batch
 from helpers import tiny
 
@@ -63,16 +62,3 @@ def test_transitions_keep_only_what_the_losses_read():
     assert sorted(stored.keys(True, True)) == sorted([("agents", "observation"), ("agents", "action"),
                                                       ("next", "agents", "observation"), ("next", "agents", "reward"),
                                                       ("next", "agents", "done"), ("next", "agents", "terminated")])
-
-
-def test_end_at_deadline_marks_the_transitions_whose_next_observation_is_the_last():
-    """With env.observe_time the time column of the (n-step) next observation decides: at 1, terminated."""
-    from formation_rl.training.replay import end_at_deadline
-
-    obs = torch.zeros(2, 3, 2, 5)
-    obs[0, 2, :, -1] = 1.0  # copy 0's third step reaches the deadline
-    obs[1, :, :, -1] = torch.tensor([0.5, 0.75, 0.9]).view(3, 1)
-    td = TensorDict({"next": {"agents": {"observation": obs}, "terminated": torch.zeros(2, 3, 1, dtype=torch.bool)}},
-                    batch_size=(2, 3))
-    out = end_at_deadline(td)["next", "terminated"].squeeze(-1)
-    assert out.tolist() == [[False, False, True], [False, False, False]]
