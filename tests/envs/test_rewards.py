@@ -231,13 +231,14 @@ def test_leader_robot_collision_share():
     near[1] = [slots[0][0] - 0.15, slots[0][1] + 0.1]  # L1 0.18 m from the leader: a robot contact
     ref, _ = rewards_at(make_env(), near)
     assert ref[0] == pytest.approx(RewardConfig().robot_collision)  # the paper: the leader takes R5
-    for share in (0.0, 0.5):
+    for share, r5 in ((0.0, -10.0), (0.5, -10.0), (0.2, -50)):  # (an integer R5 from Python, as from a script)
         cfg = EnvConfig(num_obstacles=1)
-        cfg.reward = RewardConfig(leader_robot_collision=share)
+        cfg.reward = RewardConfig(leader_robot_collision=share, robot_collision=r5)
         r, _ = rewards_at(FormationEnv(1, config=cfg, seed=0), near)
-        np.testing.assert_allclose(r[1:], ref[1:], atol=1e-6)  # followers unchanged
+        assert r[1] == pytest.approx(r5)  # the follower in contact takes R5, the others are unchanged
+        np.testing.assert_allclose(r[2:], ref[2:], atol=1e-6)
         if share:
-            assert r[0] == pytest.approx(share * RewardConfig().robot_collision)
+            assert r[0] == pytest.approx(share * r5)
         else:  # the leader's guided term: -|p - g| at the paper's weights
             assert r[0] == pytest.approx(-math.dist(slots[0], (3.2, 3.2)), abs=1e-5)
     with pytest.raises(ValueError, match=r"env.reward.leader_robot_collision = 2"):
