@@ -116,6 +116,6 @@ def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing(
     validate(team)
     assert team.env.reward.variant == "hybrid" and team.env.reward.leader_progress == 1.0  # reward=shaped
     rw = team.env.reward
-    assert (rw.goal, rw.robot_collision, rw.leader_robot_collision) == (50, -50, 0)
+    assert (rw.goal, rw.robot_collision, rw.leader_robot_collision, rw.scale) == (50, -50, 0, 0.1)
     assert team.algo.gamma == 0.995 and team.model.leader_critic == "own" and team.start_team
     assert team.total_frames == 250_000 and team.algo.update_every == 10  # its own budget wins over budget=paper
