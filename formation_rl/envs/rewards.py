@@ -120,7 +120,7 @@ def step_quantities(
     positive_value[0] = rw.goal
     r5, robot_event = rw.robot_collision, robot_hit  # R5, and the contacts whose event replaces the guided term
     if rw.leader_robot_collision != 1.0:  # the leader's share of R5; at 0 its contacts are no event for it
-        r5 = torch.full((n, 1), float(rw.robot_collision), device=pos.device)  # (an int R5: no int tensor)
+        r5 = torch.full((n, 1), rw.robot_collision, dtype=pos.dtype, device=pos.device)
         r5[0] *= rw.leader_robot_collision
         robot_event = robot_hit & (r5 != 0)
     sparse = positive * positive_value + obstacle_hit * rw.obstacle_collision + robot_hit * r5
