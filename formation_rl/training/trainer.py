@@ -7,7 +7,6 @@ checkpointing on the way. Everything a resume needs is one :meth:`Trainer.state_
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import random
 import time
@@ -65,7 +64,7 @@ class Trainer:
         a = cfg.algo
         self._seed_everything(cfg.seed)
         dev = torch.device(cfg.device)
-        self.env = FormationEnv(cfg.num_envs, config=copy.deepcopy(cfg.env), device=dev, seed=cfg.seed,
+        self.env = FormationEnv(cfg.num_envs, config=cfg.env, device=dev, seed=cfg.seed,
                                 compile_physics=cfg.compile_env, start_anywhere=cfg.start_anywhere,
                                 start_team=cfg.start_team)
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
@@ -121,7 +120,6 @@ class Trainer:
         learn_from = max(a.batch_size, a.warmup_frames)  # no update before the buffer holds this much
         batches = -(-max(remaining, 1) // per_batch)  # whole collector batches (the last one may overshoot)
         warmup_batches = -(-max(0, a.warmup_frames - self.frames) // per_batch)
-        self._shrink_sensing()  # (before the collector's first step)
         collector = Collector(
             self.env, self.explore, frames_per_batch=per_batch, total_frames=batches * per_batch,
             init_random_frames=warmup_batches * per_batch, device=cfg.device,
@@ -160,7 +158,6 @@ class Trainer:
                                              f"{self.algo.critic_steps + 1}): {err}; the last good checkpoint "
                                              f"{self.run_dir / CHECKPOINT} is kept") from None
                 self.noise.step(data.numel())
-                self._shrink_sensing()
                 with timings("logging"):
                     latest = self._log_train(finished, losses, latest, start, steps0)
                 if self.frames >= self.next_eval:
@@ -180,15 +177,6 @@ class Trainer:
         self.save_checkpoint()
         self.logger.experiment.flush()
         return final
-
-    def _shrink_sensing(self) -> None:
-        """``sensing_curriculum``: the training env senses at a range that falls linearly from
-        ``sensing_curriculum_start`` (frame 0) to ``env.sensing_range`` (at ``sensing_curriculum`` frames)."""
-        cfg = self.cfg
-        if cfg.sensing_curriculum > 0:
-            left = max(0.0, 1.0 - self.frames / cfg.sensing_curriculum)
-            self.env.config.sensing_range = cfg.env.sensing_range + left * (
-                cfg.sensing_curriculum_start - cfg.env.sensing_range)
 
     def _gradient_step(self) -> dict[str, torch.Tensor]:
         with self.timings("buffer_sample"):
