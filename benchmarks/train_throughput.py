@@ -43,6 +43,7 @@ from omegaconf import OmegaConf
 from tensordict import TensorDict
 
 from formation_rl.algorithms import make_algorithm
+from formation_rl.envs import EnvConfig
 from formation_rl.models import bf16_supported, make_actor, make_critic, set_precision
 from formation_rl.training.config import TrainConfig
 from formation_rl.training.replay import make_replay_buffer
@@ -73,6 +74,22 @@ def step_flops(n: int, obs_dim: int, hidden: list[int], batch: int, critics: int
     per_sample_critic_step = n * (actor + critics * critic * 3 + critics * critic_upper)
     per_sample_actor_step = n * (actor + critic + critic_upper + actor + actor_upper)
     return 2.0 * batch * (per_sample_critic_step + per_sample_actor_step / delay)
+
+
+def target_share(n: int, obs_dim: int, hidden: list[int], critics: int, delay: int) -> float:
+    """Share of a step's GEMM FLOPs in the target passes (target actors and critics forward, no gradient),
+    which ``precision=bf16`` keeps in fp32 by design (the TD target in fp32)."""
+    def macs(sizes: list[int]) -> int:
+        return sum(a * b for a, b in zip(sizes[:-1], sizes[1:], strict=True))
+
+    target = 2.0 * n * (macs([obs_dim, *hidden, 2]) + critics * macs([n * (obs_dim + 2), *hidden, 1]))
+    return target / step_flops(n, obs_dim, hidden, 1, critics, delay)
+
+
+def bf16_floor(share_fp32: float, fp32_rate: float, bf16_rate: float) -> float:
+    """The lowest bf16 / fp32 step ratio possible with ``share_fp32`` of the GEMM FLOPs in fp32: every GEMM
+    at its precision's square-matmul rate and nothing else in the step (no elementwise work, no overhead)."""
+    return share_fp32 + (1.0 - share_fp32) * fp32_rate / bf16_rate
 
 
 def joint_layer_share(n: int, obs_dim: int, h1: int, critics: int, delay: int) -> float:
@@ -370,6 +387,13 @@ def precision_step(steps: int, rounds: int, fp32_rate: float | None = None) -> d
               f"{100 * r['gflops'] / rates[p]:.0f}% | {r['vs_fp32']:.2f} |")
     if out["bf16"] is None:
         print("| bf16 | - | - | - | - | - | (this CPU has no native bf16) |")
+    else:  # what the matmul rates allow at best, with the target passes in fp32 and with none
+        share = target_share(5, EnvConfig().obs_dim, [128, 128], 2, 2)
+        out["bf16"]["floor"] = bf16_floor(share, rates["fp32"], rates["bf16"])
+        out["bf16"]["floor_all_bf16"] = bf16_floor(0.0, rates["fp32"], rates["bf16"])
+        print(f"\nFloor of the bf16 / fp32 step ratio from the matmul rates alone (GEMMs only, at 100% of the "
+              f"square-matmul rate, no other work): {out['bf16']['floor']:.2f} with the target passes in fp32 "
+              f"({100 * share:.0f}% of the FLOPs), {out['bf16']['floor_all_bf16']:.2f} with every GEMM in bf16.")
     print(flush=True)
     return out
 

@@ -19,6 +19,16 @@ def test_step_flops_by_hand():
     assert bench.step_flops(2, 3, [4], 8, critics=2, delay=2) == 2 * 8 * (twin + actor_step / 2)
 
 
+def test_target_share_and_bf16_floor_by_hand():
+    critic_step = 2 * (20 + 1 * 44 * 3 + 1 * 4)  # the network of test_step_flops_by_hand
+    actor_step = 2 * (20 + 44 + 4 + 20 + 8)
+    target = 2 * (20 + 44)  # MACs: target actors and target critic forward, both robots
+    share = bench.target_share(2, 3, [4], critics=1, delay=1)
+    assert abs(share - target / (critic_step + actor_step)) < 1e-12
+    assert bench.bf16_floor(share, 100.0, 200.0) == share + (1 - share) / 2
+    assert bench.bf16_floor(0.0, 100.0, 400.0) == 0.25
+
+
 def test_matmul_rate_in_each_precision():
     import torch
 
