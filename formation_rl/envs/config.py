@@ -91,15 +91,13 @@ class EnvConfig:
     sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed (paper)
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible (choice)
     relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (a departure, docs/departures.md)
-    observe_slot: bool = False  # every robot also sees the offset to its slot of the active formation, placed at the
-    #                             leader and facing its velocity (two columns before the flag; ours, docs/departures.md)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @property
     def obs_dim(self) -> int:
         """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions)."""
-        return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1 + 2 * self.observe_slot
+        return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1
 
     @property
     def area_formation(self) -> FormationConfig:
@@ -145,7 +143,6 @@ class EnvConfig:
         _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.relative_positions, "relative_positions", lambda v: isinstance(v, bool), "true or false")
-        _check(self.observe_slot, "observe_slot", lambda v: isinstance(v, bool), "true or false")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")
         for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):

@@ -58,13 +58,6 @@ class FormationEnv(EnvBase):
         self._make_specs(b, n, m, d)
         self._geom = Geometry.build(cfg, self.device)
         self._obs_index = world.observation_index(n, m, self.device)
-        if cfg.observe_slot:  # open-space then obstacle-area slots, and the start-to-goal direction
-            from formation_rl.envs.formations import slots
-
-            shapes = (cfg.formation, cfg.area_formation) if cfg.reward.variant == "hybrid" else (cfg.formation,)
-            self._slots = torch.stack([slots(f, n).float() for f in shapes]).to(self.device)
-            centre = torch.tensor([cfg.goal_low + cfg.goal_high - cfg.start_low - cfg.start_high] * 2)
-            self._heading = (centre / centre.norm()).to(self.device)
         self._advance = torch.compile(self._advance_eager) if compile_physics else self._advance_eager
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(int(torch.randint(2**62, ())) if seed is None else seed)
@@ -134,9 +127,6 @@ class FormationEnv(EnvBase):
         obs = world.observe(pos, vel, q, self._obs_index)  # [B, N, D]
         if self.config.relative_positions:
             obs = world.make_relative(obs)
-        if self.config.observe_slot:  # two columns before the flag, which stays last
-            offsets = world.slot_offsets(pos, vel, q["in_area"], self._slots, self._heading)
-            obs = torch.cat([obs[..., :-1], offsets.to(obs.dtype), obs[..., -1:]], -1)
         return {
             "observation": obs,
             "reward": q["reward"].T.unsqueeze(-1).contiguous(),  # [B, N, 1]

@@ -208,20 +208,3 @@ def make_relative(obs: torch.Tensor) -> torch.Tensor:
     n = obs.shape[-2]
     obs[..., 1:, 4:4 + 2 * (n - 1)].unflatten(-1, (n - 1, 2)).sub_(obs[..., 1:, None, 0:2])
     return obs
-
-
-def slot_offsets(pos: torch.Tensor, vel: torch.Tensor, in_area: torch.Tensor, slots: torch.Tensor,
-                 heading: torch.Tensor, blend: float = 0.05) -> torch.Tensor:
-    """Each robot's offset to its slot of the active formation, ``[B, N, 2]`` (``EnvConfig.observe_slot``, ours).
-
-    The formation frame sits at the leader and faces its velocity plus ``blend`` m/s along ``heading``
-    (the start-to-goal direction, so that a leader at rest still has a front). ``pos``/``vel`` are
-    batch-last ``[2, N, B]``, ``in_area`` ``[B]``, ``slots`` ``[F, N, 2]`` (open space, then obstacle area).
-    """
-    h = vel[:, 0] + blend * heading[:, None]  # [2, B]
-    h = h / torch.hypot(h[0], h[1])
-    s = slots.transpose(1, 2)[..., None]  # [F, 2, N, 1]
-    s = torch.where(in_area, s[1], s[0]) if slots.shape[0] > 1 else s[0]  # [2, N, B] or [2, N, 1]
-    target_x = pos[0, :1] + h[0] * s[0] - h[1] * s[1]
-    target_y = pos[1, :1] + h[1] * s[0] + h[0] * s[1]
-    return torch.stack([target_x - pos[0], target_y - pos[1]]).permute(2, 1, 0)

@@ -258,31 +258,3 @@ def test_start_team_moves_the_start_square_with_the_team():
     assert not env.reset()["obstacle_collision"].any()
     single = FormationEnv(256, config=cfg, seed=0, start_anywhere=1.0).reset()["state", "positions"]
     assert ((single.amax(1) - single.amin(1)) > side + 1e-5).any()  # without it, robots spread apart
-
-
-def test_observe_slot_points_each_follower_at_its_slot_facing_the_leaders_velocity():
-    """env.observe_slot: two columns before the flag, position + offset = the slot of the active formation
-    at the leader, the frame facing the leader's velocity (at rest: the start-to-goal diagonal)."""
-    env = FormationEnv(2, config={"observe_slot": True, "num_obstacles": 0}, seed=0)
-    assert env.observation_spec["agents", "observation"].shape[-1] == env.config.obs_dim == 4 + 8 + 1 + 2
-    shape = torch.tensor([[0.0, 0.0], [1.0, 1.0], [-1.0, 0.0], [0.0, 2.0], [2.0, -1.0]])
-    pos = shape + torch.tensor([-2.5, -2.5])  # the leader outside the obstacle area: V
-    obs = env.set_world_state(positions=pos, velocities=torch.zeros(5, 2))["agents", "observation"][0]
-    # V slots (-k s cos 45, +-k s sin 45) turned 45 degrees: L_k at (-k s, 0), R_k at (0, -k s)
-    expected = torch.tensor([[0.0, 0.0], [-0.5, 0.0], [0.0, -0.5], [-1.0, 0.0], [0.0, -1.0]])
-    torch.testing.assert_close(pos + obs[:, -3:-1], expected + pos[0], atol=1e-5, rtol=0)
-    pos = shape  # the leader inside: the chain, one file 0.4 m apart behind it
-    obs = env.set_world_state(positions=pos, velocities=torch.zeros(5, 2))["agents", "observation"][0]
-    chain = -0.4 * math.sqrt(0.5) * torch.arange(5.0)[:, None].expand(5, 2)
-    torch.testing.assert_close(pos + obs[:, -3:-1], chain, atol=1e-5, rtol=0)
-    # moving along +x (fast enough that the 0.05 m/s start-to-goal blend is small): L1 behind-left of the leader
-    vel = torch.zeros(5, 2)
-    vel[0] = torch.tensor([0.85, 0.0])
-    pos = shape + torch.tensor([-2.5, -2.5])
-    obs = env.set_world_state(positions=pos, velocities=vel)["agents", "observation"][0]
-    h = torch.tensor([0.85 + 0.05 * math.sqrt(0.5), 0.05 * math.sqrt(0.5)])
-    h = h / h.norm()
-    slot = torch.tensor([-0.5 * math.sqrt(0.5), 0.5 * math.sqrt(0.5)])
-    l1 = torch.stack([h[0] * slot[0] - h[1] * slot[1], h[1] * slot[0] + h[0] * slot[1]])
-    torch.testing.assert_close(pos[1] + obs[1, -3:-1], pos[0] + l1, atol=1e-5, rtol=0)
-    assert obs[0, -3:-1].abs().max() == 0  # the leader's slot is where it is
