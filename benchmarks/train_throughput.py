@@ -43,7 +43,6 @@ from omegaconf import OmegaConf
 from tensordict import TensorDict
 
 from formation_rl.algorithms import make_algorithm
-from formation_rl.envs import EnvConfig
 from formation_rl.models import bf16_supported, make_actor, make_critic, set_precision
 from formation_rl.training.config import TrainConfig
 from formation_rl.training.replay import make_replay_buffer
@@ -55,6 +54,12 @@ PAPER_FRAMES, PAPER_RATIO = 9_000_000, 100
 
 
 # ---------------------------------------------------------------------------------------- FLOPs
+def _macs(sizes: list[int]) -> tuple[int, int]:
+    """Multiply-adds per sample of an MLP with these layer sizes: (all layers, layers above the first)."""
+    pairs = list(zip(sizes[:-1], sizes[1:], strict=True))
+    return sum(a * b for a, b in pairs), sum(a * b for a, b in pairs[1:])
+
+
 def step_flops(n: int, obs_dim: int, hidden: list[int], batch: int, critics: int, delay: int) -> float:
     """GEMM FLOPs of one gradient step (2 per multiply-add; elementwise work not counted).
 
@@ -63,14 +68,8 @@ def step_flops(n: int, obs_dim: int, hidden: list[int], batch: int, critics: int
     Actor step, every ``delay`` critic steps: actors forward, critic 1 forward, its backward to
     the actions (input gradients), the actors' backward (weights; inputs above the first layer).
     """
-    critic_in = n * (obs_dim + 2)
-
-    def macs(sizes: list[int]) -> tuple[int, int]:  # (all layers, layers above the first)
-        pairs = list(zip(sizes[:-1], sizes[1:], strict=True))
-        return sum(a * b for a, b in pairs), sum(a * b for a, b in pairs[1:])
-
-    actor, actor_upper = macs([obs_dim, *hidden, 2])
-    critic, critic_upper = macs([critic_in, *hidden, 1])
+    actor, actor_upper = _macs([obs_dim, *hidden, 2])
+    critic, critic_upper = _macs([n * (obs_dim + 2), *hidden, 1])
     per_sample_critic_step = n * (actor + critics * critic * 3 + critics * critic_upper)
     per_sample_actor_step = n * (actor + critic + critic_upper + actor + actor_upper)
     return 2.0 * batch * (per_sample_critic_step + per_sample_actor_step / delay)
@@ -79,10 +78,7 @@ def step_flops(n: int, obs_dim: int, hidden: list[int], batch: int, critics: int
 def target_share(n: int, obs_dim: int, hidden: list[int], critics: int, delay: int) -> float:
     """Share of a step's GEMM FLOPs in the target passes (target actors and critics forward, no gradient),
     which ``precision=bf16`` keeps in fp32 by design (the TD target in fp32)."""
-    def macs(sizes: list[int]) -> int:
-        return sum(a * b for a, b in zip(sizes[:-1], sizes[1:], strict=True))
-
-    target = 2.0 * n * (macs([obs_dim, *hidden, 2]) + critics * macs([n * (obs_dim + 2), *hidden, 1]))
+    target = 2.0 * n * (_macs([obs_dim, *hidden, 2])[0] + critics * _macs([n * (obs_dim + 2), *hidden, 1])[0])
     return target / step_flops(n, obs_dim, hidden, 1, critics, delay)
 
 
@@ -388,7 +384,9 @@ def precision_step(steps: int, rounds: int, fp32_rate: float | None = None) -> d
     if out["bf16"] is None:
         print("| bf16 | - | - | - | - | - | (this CPU has no native bf16) |")
     else:  # what the matmul rates allow at best, with the target passes in fp32 and with none
-        share = target_share(5, EnvConfig().obs_dim, [128, 128], 2, 2)
+        cfg = make_config("per_matd3")  # the shapes grad_step timed
+        share = target_share(cfg.env.num_robots, cfg.env.obs_dim, list(cfg.model.hidden), cfg.algo.num_critics,
+                             cfg.algo.policy_delay)
         out["bf16"]["floor"] = bf16_floor(share, rates["fp32"], rates["bf16"])
         out["bf16"]["floor_all_bf16"] = bf16_floor(0.0, rates["fp32"], rates["bf16"])
         print(f"\nFloor of the bf16 / fp32 step ratio from the matmul rates alone (GEMMs only, at 100% of the "
