@@ -13,7 +13,8 @@ pos = torch.cat([ro["state", "positions"][:, :1], ro["next", "state", "positions
 act = ro["agents", "action"]  # [B, 6, N, 2]
 goal = ro["state", "goal"][:, 0]
 d = (pos[:, :, 1:] - pos[:, :, :1]).norm(dim=-1)  # follower-leader distance [B, 7, N-1]
-hit = (d[:, 1:] < 0.3).any(1)  # [B, N-1] rammed by the leader in steps 1-6
+contact = 2 * cfg.robot_radius + cfg.robot_collision_margin  # centre distance below which two robots touch
+hit = (d[:, 1:] < contact).any(1)  # [B, N-1] rammed by the leader in steps 1-6
 dirg = goal - pos[:, 0, 0]; dirg = dirg / dirg.norm(dim=-1, keepdim=True)
 rel = pos[:, 0, 1:] - pos[:, 0, :1]  # follower relative to leader at start [B, N-1, 2]
 ahead = (rel * dirg[:, None]).sum(-1)  # along the goal direction
