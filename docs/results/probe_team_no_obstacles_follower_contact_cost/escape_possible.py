@@ -33,6 +33,7 @@ best = torch.zeros(B, N - 1)
 for deg in range(0, 360, 15):  # each follower flees in one fixed direction; keep its best
     d = torch.tensor([math.cos(math.radians(deg)), math.sin(math.radians(deg))])
     best = torch.maximum(best, closest_to_leader((d / d.abs().max()).expand(B, N, 2)))
-print("episodes with a follower that no fixed escape saves from the leader:", (best < contact).any(1).float().mean().item())
+print("episodes with a follower that no fixed escape saves from the leader:",
+      (best < contact).any(1).float().mean().item())
 still = closest_to_leader(torch.zeros(B, N, 2))
 print("episodes where a still follower is rammed:", (still < contact).any(1).float().mean().item())
