@@ -120,7 +120,6 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["env.num_robots=1"], "env.num_robots = 1 is invalid: must be an integer >= 2"),
     ("train", ["num_envs=0"], "num_envs = 0 is invalid: must be an integer >= 1"),
     ("train", ["total_frames=0"], "total_frames = 0 is invalid: must be an integer >= 1"),
-    ("train", ["terminate_on=always"], "terminate_on = 'always' is invalid: must be none or leader_obstacle"),
     ("train", ["algo.batch_size=2048", "algo.buffer_size=1000"], "algo.buffer_size = 1000 is invalid: must be >="),
     ("train", ["algo.lr_actor=-1"], "algo.lr_actor = -1.0 is invalid: must be > 0"),
     ("train", ["algo.tau=-0.1"], "algo.tau = -0.1 is invalid: must be in [0, 1]"),

@@ -13,7 +13,6 @@ from formation_rl.envs.config import EnvConfig
 from formation_rl.envs.rewards import Geometry, step_quantities
 
 STATE_KEYS = ("positions", "velocities", "goal", "obstacle_centers", "obstacle_radii")
-TERMINATE_ON = ("none", "leader_obstacle")  # training-only early ends (the world never ends early)
 FLAG_KEYS = ("robot_collision", "obstacle_collision", "in_obstacle_area")
 VALUE_KEYS = ("goal_distance", "formation_error")
 
@@ -43,7 +42,6 @@ class FormationEnv(EnvBase):
         compile_physics: bool = False,
         start_anywhere: float = 0.0,
         start_team: bool = False,
-        terminate_on: str = "none",
     ):
         if not isinstance(num_envs, int) or isinstance(num_envs, bool) or num_envs < 1:
             raise ValueError(f"num_envs = {num_envs!r} is invalid: must be an integer >= 1")
@@ -53,9 +51,6 @@ class FormationEnv(EnvBase):
             raise ValueError(f"start_anywhere = {start_anywhere!r} is invalid: must be a number in [0, 1]")
         self.start_anywhere = float(start_anywhere)
         self.start_team = bool(start_team)  # those starts move the whole start square, not each robot
-        if terminate_on not in TERMINATE_ON:
-            raise ValueError(f"terminate_on = {terminate_on!r} is invalid: must be one of {', '.join(TERMINATE_ON)}")
-        self.terminate_on = terminate_on  # training only: "leader_obstacle" ends an episode at the leader's contact
         super().__init__(device=device, batch_size=torch.Size([num_envs]))
         self.config = cfg
         self.num_envs = b = num_envs
@@ -142,7 +137,6 @@ class FormationEnv(EnvBase):
             "in_obstacle_area": q["in_area"].unsqueeze(-1),
             "goal_distance": q["goal_distance"].unsqueeze(-1),
             "formation_error": q["formation_error"].unsqueeze(-1),
-            "leader_obstacle_hit": q["obstacle_hit"][0].unsqueeze(-1),  # [B, 1]; not reported, ends episodes
         }
 
     def _advance_eager(self, pos, vel, action, goal, centers, radii):
@@ -177,13 +171,8 @@ class FormationEnv(EnvBase):
         out = self._pack(measured, rewards=True)
         truncated = (self._steps >= self.config.max_steps).unsqueeze(-1)  # [B, 1]
         out.set("truncated", truncated)
-        if self.terminate_on == "leader_obstacle":
-            terminated = measured["leader_obstacle_hit"]
-            out.set("terminated", terminated)
-            out.set("done", truncated | terminated)
-        else:
-            out.set("terminated", torch.zeros_like(truncated))
-            out.set("done", truncated.clone())
+        out.set("terminated", torch.zeros_like(truncated))
+        out.set("done", truncated.clone())
         return out
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:

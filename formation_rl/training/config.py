@@ -28,8 +28,6 @@ class TrainConfig:
     #                              starts, ours); evaluation always starts in the default square
     start_team: bool = False  # those starts move the start square, team and all, anywhere in the arena; false: each
     #                           robot anywhere on its own (ours)
-    terminate_on: str = "none"  # training episodes end early: none | leader_obstacle (at the leader's obstacle
-    #                             contact: it then costs the leader its whole future, the goal included; ours)
     total_frames: int = 300_000  # frames = transitions of one env copy (reference.md, Algorithms); paper: 9,000,000
     num_envs: int = 64  # env copies stepped together by the collector
     steps_per_batch: int = 25  # collector batch = num_envs x steps_per_batch frames
@@ -88,8 +86,6 @@ def validate(cfg: TrainConfig) -> None:
     check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
     check(cfg.model.leader_critic in ("joint", "own"), "model.leader_critic", cfg.model.leader_critic, "joint or own")
     check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
-    check(cfg.terminate_on in ("none", "leader_obstacle"), "terminate_on", cfg.terminate_on,
-          "none or leader_obstacle")
     check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
     check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")
     check(cfg.steps_per_batch >= 1, "steps_per_batch", cfg.steps_per_batch, "an integer >= 1")

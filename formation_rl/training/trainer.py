@@ -66,7 +66,7 @@ class Trainer:
         dev = torch.device(cfg.device)
         self.env = FormationEnv(cfg.num_envs, config=cfg.env, device=dev, seed=cfg.seed,
                                 compile_physics=cfg.compile_env, start_anywhere=cfg.start_anywhere,
-                                start_team=cfg.start_team, terminate_on=cfg.terminate_on)
+                                start_team=cfg.start_team)
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),

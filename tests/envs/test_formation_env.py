@@ -110,30 +110,6 @@ def test_an_episode_ends_by_truncation_only():
     assert not nxt["done"][:, :-1].any() and not nxt["truncated"][:, :-1].any()
 
 
-def test_terminate_on_leader_obstacle_ends_training_episodes_at_the_leaders_contact_only():
-    """FormationEnv(terminate_on="leader_obstacle"), a training option: the step in which the leader touches an
-    obstacle is terminated (no bootstrap past it) and done; the followers' contacts end nothing."""
-    cfg = EnvConfig(num_robots=3, max_steps=60)
-
-    def at_an_obstacle(td):  # every robot pushes toward obstacle 0's centre
-        pos, centers = td["state", "positions"], td["state", "obstacle_centers"]
-        td.set(("agents", "action"), (centers[:, None, 0] - pos).clamp(-1, 1))
-        return td
-
-    env = FormationEnv(32, config=cfg, seed=0, terminate_on="leader_obstacle")
-    nxt = env.rollout(60, at_an_obstacle, break_when_any_done=False)["next"]
-    pos, centers, radii = nxt["state", "positions"], nxt["state", "obstacle_centers"], nxt["state", "obstacle_radii"]
-    gap = (pos[..., :, None, :] - centers[..., None, :, :]).norm(dim=-1) - radii[..., None, :] - cfg.robot_radius
-    hit = gap.amin(-1) < cfg.obstacle_collision_margin  # [B, T, N]
-    assert hit[..., 0].sum() > 10 and (hit[..., 1:].any(-1) & ~hit[..., 0]).any()
-    assert torch.equal(nxt["terminated"][..., 0], hit[..., 0])
-    assert torch.equal(nxt["done"][..., 0], hit[..., 0] | nxt["truncated"][..., 0])
-    plain = FormationEnv(32, config=cfg, seed=0).rollout(60, at_an_obstacle, break_when_any_done=False)["next"]
-    assert plain["obstacle_collision"].any() and not plain["terminated"].any()
-    with pytest.raises(ValueError, match=r"^terminate_on = 'any' is invalid: must be one of none, leader_obstacle"):
-        FormationEnv(1, terminate_on="any")
-
-
 def test_seeding_reproduces_scenarios():
     a, b = FormationEnv(16, seed=7), FormationEnv(16, seed=7)
     ra, rb = a.reset(), b.reset()
