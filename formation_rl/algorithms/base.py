@@ -10,7 +10,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.objectives import LossModule, SoftUpdate, ValueEstimators
 
 from formation_rl.algorithms.config import AlgoConfig
-from formation_rl.models.networks import ResidualActor
+from formation_rl.models.networks import ResidualActor, target_passes
 
 KEYS = dict(
     action=("agents", "action"),
@@ -80,7 +80,8 @@ class Algorithm:
         loss or gradient raises before its optimiser steps; without it (under a CUDA graph) the step
         returns a ``finite`` flag for the caller to raise on, after the fact."""
         weights = batch.get(WEIGHT_KEY, None)  # [B], normalised by their max (eq. 20)
-        per_sample, meta = self._critic_loss(batch.exclude(WEIGHT_KEY))  # [B, N], summed over critics
+        with target_passes():  # the loss's passes without gradients are its TD targets' (precision=bf16_targets)
+            per_sample, meta = self._critic_loss(batch.exclude(WEIGHT_KEY))  # [B, N], summed over critics
         if weights is not None:
             critic_loss = (per_sample * weights.unsqueeze(-1)).mean()  # eq. 21-22
         else:

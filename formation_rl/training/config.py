@@ -42,9 +42,10 @@ class TrainConfig:
     resume: str | None = None  # a checkpoint file or run directory to continue from; "auto": this run's
     progress: bool = True  # progress bar
     threads: int | None = None  # torch intra-op threads (None: torch's default; sweeps set 1 per job)
-    precision: str = "fp32"  # fp32 | bf16: the update's forward and backward under bf16 autocast (hidden layers;
-    #                          fp32 weights, optimiser, output layers, TD targets and priorities); bf16 needs a CPU
-    #                          with AVX512-BF16/AMX or a GPU with bf16
+    precision: str = "fp32"  # fp32 | bf16: the update's forward and backward in bf16 (hidden layers; fp32 weights,
+    #                          optimiser, output layers, TD targets and priorities) | bf16_targets: the TD targets'
+    #                          hidden layers in bf16 too (their output layers, arithmetic and the priorities fp32);
+    #                          both need a CPU with AVX512-BF16/AMX or a GPU with bf16
 
 
 def register() -> None:
@@ -99,7 +100,7 @@ def validate(cfg: TrainConfig) -> None:
     from formation_rl.models.networks import PRECISIONS
 
     check(cfg.precision in PRECISIONS, "precision", cfg.precision, " or ".join(PRECISIONS))
-    if cfg.precision == "bf16":
+    if cfg.precision != "fp32":
 
         check(bf16_supported(cfg.device), "precision", cfg.precision,
               f"fp32 on this {cfg.device}: it has no native bf16 (CPU: AVX512-BF16 or AMX; GPU: bf16 support), "

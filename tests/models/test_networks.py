@@ -100,6 +100,35 @@ def test_bf16_runs_hidden_layers_in_bf16_only_with_gradients():
         assert torch.equal(critic(td(obs, act))["agents", "state_action_value"].detach(), q32)
 
 
+@pytest.mark.parametrize("activation", ["relu", "tanh"])  # the hand-written layers, and autograd + autocast
+def test_bf16_targets_lowers_the_updates_target_passes_only(activation):
+    """precision=bf16_targets: inside ``target_passes()`` (the update's TD targets) passes without gradients
+    run their hidden layers in bf16, close to fp32 with fp32 outputs; outside it (collection, evaluation)
+    they stay bit-identical to fp32."""
+    from formation_rl.models import set_precision
+    from formation_rl.models.networks import target_passes
+
+    actor, critic = make_actor(N, D, (16, 16), activation), make_critic(N, D, (16, 16), activation)
+    obs, act = torch.randn(64, N, D), torch.rand(64, N, 2) * 2 - 1
+
+    def outputs():
+        with torch.no_grad():
+            return actor(td(obs))["agents", "action"], critic(td(obs, act))["agents", "state_action_value"]
+
+    fp32 = outputs()
+    for precision in ("bf16", "bf16_targets"):
+        set_precision(actor, precision)
+        set_precision(critic, precision)
+        assert all(torch.equal(a, b) for a, b in zip(outputs(), fp32, strict=True))
+        with target_passes():
+            low = outputs()
+        same = all(torch.equal(a, b) for a, b in zip(low, fp32, strict=True))
+        assert same == (precision == "bf16")
+        for a, b in zip(low, fp32, strict=True):
+            assert a.dtype == torch.float32
+            torch.testing.assert_close(a, b, atol=0.05, rtol=0.05)
+
+
 class _AutogradReLU(nn.ReLU):
     """Not ``nn.ReLU`` itself: the networks take the autograd (+ autocast) path, the reference."""
 
@@ -183,7 +212,9 @@ def test_bf16_is_refused_where_the_cpu_lacks_it(monkeypatch):
     monkeypatch.setattr("formation_rl.models.bf16_supported", lambda device: False)
     with pytest.raises(ValueError, match=r"^precision = 'bf16' is invalid: must be fp32 on this cpu"):
         validate(TrainConfig(precision="bf16"))
-    with pytest.raises(ValueError, match=r"^precision = 'fp16' is invalid: must be fp32 or bf16"):
+    with pytest.raises(ValueError, match=r"^precision = 'bf16_targets' is invalid: must be fp32 on this cpu"):
+        validate(TrainConfig(precision="bf16_targets"))
+    with pytest.raises(ValueError, match=r"^precision = 'fp16' is invalid: must be fp32 or bf16 or bf16_targets"):
         validate(TrainConfig(precision="fp16"))
 
 

@@ -6,6 +6,7 @@ import pytest
 import torch
 from helpers import scalars, tiny
 
+from formation_rl.models import bf16_supported
 from formation_rl.training.checkpoint import CHECKPOINT, atomic_save, load_checkpoint_file, resolve_checkpoint
 from formation_rl.training.trainer import Trainer
 
@@ -36,16 +37,19 @@ def test_resolve_checkpoint_reads_auto_a_run_directory_or_a_file(tmp_path):
         resolve_checkpoint("auto", tmp_path / "other")
 
 
-def test_state_dict_round_trip_gives_the_same_next_update(tmp_path):
+@pytest.mark.parametrize("precision", [
+    "fp32", pytest.param("bf16_targets", marks=pytest.mark.skipif(not bf16_supported("cpu"), reason="no bf16 CPU"))])
+def test_state_dict_round_trip_gives_the_same_next_update(tmp_path, precision):
     """Trainer.state_dict -> bytes -> a fresh Trainer's load_state_dict: the next gradient steps (PER sampling,
     target-policy noise, twin targets, Adam moments, the actor delay) and the priorities they write are the
-    ones the original trainer computes."""
-    first = Trainer(tiny("per_matd3", frames=800, save_buffer=True), tmp_path / "a")
+    ones the original trainer computes, in either precision (weights and optimiser state stay fp32)."""
+    first = Trainer(tiny("per_matd3", frames=800, save_buffer=True, precision=precision), tmp_path / "a")
     first.train()
     saved = io.BytesIO()
     torch.save(first.state_dict(), saved)  # what save_checkpoint writes to last.pt
     steps = [first._gradient_step() for _ in range(2)]  # one critic-only step, one with the actors (policy_delay 2)
-    fresh = Trainer(tiny("per_matd3", frames=800, save_buffer=True, seed=7), tmp_path / "b")  # other initial weights
+    fresh = Trainer(tiny("per_matd3", frames=800, save_buffer=True, seed=7, precision=precision),
+                    tmp_path / "b")  # other initial weights
     saved.seek(0)
     fresh.load_state_dict(torch.load(saved, weights_only=False))
     assert (fresh.frames, fresh.episodes, fresh.algo.critic_steps) == (800, first.episodes, first.algo.critic_steps - 2)
