@@ -1,12 +1,14 @@
-"""Learning A/B of ``precision=fp32`` against ``precision=bf16``: the same recipe, several seeds each.
+"""Learning A/B of ``precision=fp32`` against ``precision=bf16`` (and ``bf16_targets``): the same recipe, several
+seeds each.
 
 Reads finished run directories (TensorBoard events and ``metrics.json``), writes beside ``--out``:
 
-- ``precision_ab.md``: the final evaluation per precision, mean ± 95% CI across seeds, per-seed values;
+- ``precision_ab.md``: the final evaluation per precision, mean ± 95% CI across seeds, per-seed values
+  (``success_last3``: the mean success of each run's last three evaluations);
 - ``precision_ab.png``: the critics' Q-value and TD-error curves and the evaluation success, per
   precision (thin lines: seeds, thick: their mean).
 
-    python benchmarks/precision_ab.py --fp32 RUN... --bf16 RUN... --out DIR
+    python benchmarks/precision_ab.py --fp32 RUN... --bf16 RUN... [--bf16-targets RUN...] --out DIR
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import torch
 
 from formation_rl.evaluation.evaluate import mean_ci
 
-METRICS = ("success", "at_goal", "UDBLT", "RFSE", "CBRS", "CBRO", "episode_reward")
+METRICS = ("success", "success_last3", "at_goal", "UDBLT", "RFSE", "CBRS", "CBRO", "episode_reward")
 CURVES = (("algo/q_value", "critic Q-value (batch mean)"), ("algo/td_error", "|TD error| (batch mean)"),
           ("eval/success", "evaluation success"))
 
@@ -48,20 +50,28 @@ def final(run: Path) -> dict[str, float]:
         sys.exit(f"--runs: {run} has no metrics.json; pass finished run directories")
     m = json.loads(path.read_text())
     m = m.get("final", m)
-    return {k: float(m[k]) for k in METRICS if k in m}
+    out = {k: float(m[k]) for k in METRICS if k in m}
+    # the final success swings with the 5 cm goal radius: also the mean of the last three evaluations
+    curve = scalars(run).get("eval/success")
+    if curve:
+        out["success_last3"] = sum(curve[1][-3:]) / len(curve[1][-3:])
+    return out
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--fp32", nargs="+", type=Path, required=True)
-    p.add_argument("--bf16", nargs="+", type=Path, required=True)
+    p.add_argument("--bf16", nargs="+", type=Path, default=[])
+    p.add_argument("--bf16-targets", nargs="+", type=Path, default=[])
     p.add_argument("--out", type=Path, required=True)
     args = p.parse_args()
-    groups = {"fp32": args.fp32, "bf16": args.bf16}
+    groups = {g: r for g, r in (("fp32", args.fp32), ("bf16", args.bf16), ("bf16_targets", args.bf16_targets)) if r}
+    if len(groups) < 2:
+        p.error("--bf16 or --bf16-targets: at least one arm to set beside --fp32")
     args.out.mkdir(parents=True, exist_ok=True)
 
     lines = ["| metric | " + " | ".join(f"{g} (mean ± 95% CI, n={len(r)})" for g, r in groups.items())
-             + " | per seed fp32 | per seed bf16 |", "|---|---|---|---|---|"]
+             + "".join(f" | per seed {g}" for g in groups) + " |", "|---|" + "---|" * (2 * len(groups))]
     finals = {g: [final(r) for r in runs] for g, runs in groups.items()}
     for k in METRICS:
         cells, seeds = [], []
@@ -81,7 +91,7 @@ def main() -> None:
 
     fig, axes = plt.subplots(1, len(CURVES), figsize=(5 * len(CURVES), 3.6))
     for (tag, title), ax in zip(CURVES, axes, strict=True):
-        for g, color in zip(groups, ("tab:blue", "tab:orange"), strict=True):
+        for g, color in zip(groups, ("tab:blue", "tab:orange", "tab:green"), strict=False):
             curves = [scalars(r).get(tag) for r in groups[g]]
             curves = [c for c in curves if c]
             for x, y in curves:

@@ -185,11 +185,12 @@ def random_transitions(size: int, n: int, d: int) -> TensorDict:
     }, [size])
 
 
-def end_to_end(algo_name: str, frames: int, n: int = 5, num_envs: int = 64, steps_per_batch: int = 25) -> dict:
+def end_to_end(algo_name: str, frames: int, n: int = 5, num_envs: int = 64, steps_per_batch: int = 25,
+               precision: str = "fp32") -> dict:
     """A real training run at one gradient step per 100 frames: frames/s and where the time went."""
     cfg = make_config(algo_name, num_robots=n, num_envs=num_envs, steps_per_batch=steps_per_batch,
                       total_frames=frames, eval_interval=10**12, checkpoint_interval=10**12, eval_episodes=10,
-                      progress=False)
+                      progress=False, precision=precision)
     cfg.algo = replace(cfg.algo, update_every=PAPER_RATIO, warmup_frames=cfg.algo.batch_size,
                        buffer_size=max(frames, cfg.algo.batch_size))
     with tempfile.TemporaryDirectory() as run_dir:
@@ -312,17 +313,28 @@ def main() -> None:
             + f" | {100 * (1 - s['update']):.1f}% |")
         sys.stdout.flush()
 
+    if out["precision"]["bf16_targets"]:  # the same run with the update in bf16, target passes included
+        r = end_to_end("per_matd3", frames, precision="bf16_targets")
+        out["end_to_end_bf16_targets"] = r
+        s = r["split"]
+        say("| per_matd3, precision=bf16_targets | " + f"{r['fps']:,.0f} | "
+            + " | ".join(f"{100 * s.get(c, 0):.1f}%" for c in cols) + f" | {100 * (1 - s['update']):.1f}% |")
+
     evals = PAPER_FRAMES // 500_000  # conf/budget/paper.yaml: every 500k frames, 1,000 episodes
     ev = eval_seconds(1000)
-    per = out["end_to_end"]["per_matd3"]
-    projected = PAPER_FRAMES / per["fps"] + (evals + 1) * ev
-    out["paper_projection"] = {"frames": PAPER_FRAMES, "grad_steps": PAPER_FRAMES // PAPER_RATIO,
-                               "fps": per["fps"], "eval_seconds": ev, "evaluations": evals + 1,
-                               "minutes": projected / 60}
-    say(f"\nProjected paper budget, PER-MATD3 (9M frames, 90,000 gradient steps, {evals + 1} evaluations of "
-        f"1,000 episodes at {ev:.1f} s): **{projected / 60:.0f} min** "
-        f"(= 9M / {per['fps']:,.0f} frames/s + evaluations; the replay buffer grows to 1M, sampling cost "
-        "measured at 50k-100k)\n")
+    for key, label in (("end_to_end", "fp32"), ("end_to_end_bf16_targets", "bf16_targets")):
+        if key not in out:
+            continue
+        per = out[key]["per_matd3"] if key == "end_to_end" else out[key]
+        projected = PAPER_FRAMES / per["fps"] + (evals + 1) * ev
+        out["paper_projection" if label == "fp32" else "paper_projection_bf16_targets"] = {
+            "frames": PAPER_FRAMES, "grad_steps": PAPER_FRAMES // PAPER_RATIO, "fps": per["fps"],
+            "eval_seconds": ev, "evaluations": evals + 1, "minutes": projected / 60}
+        say(f"\nProjected paper budget, PER-MATD3, precision={label} (9M frames, 90,000 gradient steps, "
+            f"{evals + 1} evaluations of 1,000 episodes at {ev:.1f} s): **{projected / 60:.0f} min** "
+            f"(= 9M / {per['fps']:,.0f} frames/s + evaluations; the replay buffer grows to 1M, sampling cost "
+            "measured at 50k-100k)")
+    say("")
 
     say("## Scaling in robots N (PER-MATD3, M=4, batch 1024, 64 env copies)\n")
     say("| N | obs width | ms / step | GFLOP / step | critics' joint-input layer | GFLOP/s | / matmul | "

@@ -57,7 +57,9 @@ def _hidden_autocast(x: torch.Tensor, dtype: torch.dtype | None):
 
 def _output_layer(h: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) -> torch.Tensor:
     """``h W + b`` for the last layer's few outputs (the Q-value, the 2 actions), ``[G, B, out]``: computed as
-    ``[G, out, B]`` rows, a GEMM with M = out rather than N = out, which runs 3-4x faster here."""
+    ``[G, out, B]`` rows, a GEMM with M = out rather than N = out, which runs 3-4x faster here. The hand-written
+    layers only; the fp32 default keeps its ``baddbmm`` and so its runs bit for bit (this order changes float
+    rounding, and a run's outcome on the leader + follower sub-task flips with rounding: docs/RESULTS.md)."""
     return torch.baddbmm(bias.transpose(1, 2), weight.transpose(1, 2), h.transpose(1, 2)).transpose(1, 2)
 
 
@@ -253,7 +255,7 @@ class PerRobotMLP(nn.Module):
         with _hidden_autocast(h, self.hidden_dtype()):
             for k in range(first, last):
                 h = self.activation(torch.baddbmm(self.biases[k], h, self.weights[k]))  # robot i's layer
-        return _output_layer(h.float(), self.weights[last], self.biases[last])
+        return torch.baddbmm(self.biases[last], h.float(), self.weights[last])
 
 
 class CentralizedCritic(nn.Module):

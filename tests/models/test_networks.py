@@ -76,8 +76,9 @@ def test_critic_equals_per_robot_mlp_on_the_joint_input():
 
 
 def test_bf16_runs_hidden_layers_in_bf16_only_with_gradients():
-    """precision=bf16: passes without gradients (TD targets, collection) are bit-identical to fp32; with
-    gradients the hidden layers run in bf16, the outputs stay fp32 and close, and gradients reach fp32 weights."""
+    """precision=bf16: passes without gradients (TD targets, collection) equal fp32 to float rounding (the
+    hand-written layers sum the output layer in another order); with gradients the hidden layers run in bf16,
+    the outputs stay fp32 and close, and gradients reach fp32 weights."""
     from formation_rl.models import set_precision
 
     actor, critic = make_actor(N, D, (16, 16)), make_critic(N, D, (16, 16))
@@ -87,10 +88,11 @@ def test_bf16_runs_hidden_layers_in_bf16_only_with_gradients():
     set_precision(actor, "bf16")
     set_precision(critic, "bf16")
     with torch.no_grad():
-        assert torch.equal(actor(td(obs))["agents", "action"], a32)
-        assert torch.equal(critic(td(obs, act))["agents", "state_action_value"], q32)
+        torch.testing.assert_close(actor(td(obs))["agents", "action"], a32, atol=1e-6, rtol=1e-5)
+        torch.testing.assert_close(critic(td(obs, act))["agents", "state_action_value"], q32, atol=1e-6, rtol=1e-5)
     q = critic(td(obs, act.requires_grad_()))["agents", "state_action_value"]
-    assert q.dtype == torch.float32 and not torch.equal(q.detach(), q32)  # bf16 inside: not bit-identical
+    assert q.dtype == torch.float32
+    assert not torch.allclose(q.detach(), q32, atol=1e-6, rtol=1e-5)  # bf16 inside: off by more than rounding
     torch.testing.assert_close(q.detach(), q32, atol=0.05, rtol=0.05)
     q.sum().backward()
     weights = list(critic.parameters())
@@ -104,7 +106,7 @@ def test_bf16_runs_hidden_layers_in_bf16_only_with_gradients():
 def test_bf16_targets_lowers_the_updates_target_passes_only(activation):
     """precision=bf16_targets: inside ``target_passes()`` (the update's TD targets) passes without gradients
     run their hidden layers in bf16, close to fp32 with fp32 outputs; outside it (collection, evaluation)
-    they stay bit-identical to fp32."""
+    they stay fp32 (equal to float rounding)."""
     from formation_rl.models import set_precision
     from formation_rl.models.networks import target_passes
 
@@ -119,11 +121,13 @@ def test_bf16_targets_lowers_the_updates_target_passes_only(activation):
     for precision in ("bf16", "bf16_targets"):
         set_precision(actor, precision)
         set_precision(critic, precision)
-        assert all(torch.equal(a, b) for a, b in zip(outputs(), fp32, strict=True))
+        def same(outs):
+            return all(torch.allclose(a, b, atol=1e-6, rtol=1e-5) for a, b in zip(outs, fp32, strict=True))
+
+        assert same(outputs())
         with target_passes():
             low = outputs()
-        same = all(torch.equal(a, b) for a, b in zip(low, fp32, strict=True))
-        assert same == (precision == "bf16")
+        assert same(low) == (precision == "bf16")
         for a, b in zip(low, fp32, strict=True):
             assert a.dtype == torch.float32
             torch.testing.assert_close(a, b, atol=0.05, rtol=0.05)
