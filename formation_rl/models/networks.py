@@ -137,7 +137,7 @@ class _ReluLayers(torch.autograd.Function):
             grad_z = torch.ops.aten.threshold_backward(grad_h, acts[k + 1], 0)  # ReLU's backward, from its output
             h, w = acts[k], weights[k]
             g, fan_in, hid = w.shape
-            if h.dim() == 2:  # joint input: [in + 1, B] @ [B, H] per group, the bias's gradient in the row of ones
+            if h.dim() == 2:  # joint input: [in + 1, B] @ [B, G*H], the bias's gradient in the row of ones
                 flat = grad_z.transpose(0, 1).reshape(-1, g * hid)
                 grad_wb = (h.t() @ flat).view(fan_in + 1, g, hid).transpose(0, 1).to(w.dtype)
                 grad_w[k], grad_b[k] = grad_wb[:, :-1], grad_wb[:, -1:]
@@ -149,7 +149,6 @@ class _ReluLayers(torch.autograd.Function):
             elif ctx.critic:
                 n = ctx.num_robots
                 if ctx.needs_input_grad[0]:  # every critic's gradient into the observations
-                    flat = grad_z.transpose(0, 1).reshape(-1, g * hid)
                     grad_joint = flat @ w.permute(1, 0, 2).reshape(fan_in, g * hid).t().to(low)
                     grad_x = grad_joint[:, : fan_in - 2 * n].reshape(ctx.obs_shape).to(w.dtype)
                 if ctx.needs_input_grad[1]:  # critic g's gradient into its own action only
