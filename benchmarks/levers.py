@@ -1,9 +1,10 @@
 """The levers tried on the gradient step, each against the shipped path in the same process.
 
-    python benchmarks/levers.py [--rounds 4] [--threads 1] [--precision-only]
+    python benchmarks/levers.py [--rounds 4] [--threads 1] [--precision fp32|bf16|bf16_targets] [--precision-only]
 
 Prints the median ms per PER-MATD3 gradient step (N=5, M=4, batch 1024) of the shipped path and
-of each alternative, alternating the two `--rounds` times so that drift hits both alike; then the
+of each alternative at `--precision` (default fp32; levers of the hand-written layers act in the bf16
+paths only), alternating the two `--rounds` times so that drift hits both alike; then the
 step in fp32 and bf16, with the hand-written ReLU layers (shipped) and with autograd + autocast
 (before), all four alternated, each against the fp32 step before. Besides wall time it reports
 the process's CPU time per step, which a machine shared with other jobs inflates less (with one
@@ -47,6 +48,10 @@ class _FusedAdam(torch.optim.Adam):
         super().__init__(params, fused=True, **kwargs)
 
 
+def _strided_group_major(h, groups, width):
+    return h.view(-1, groups, width).transpose(0, 1)
+
+
 class _AutogradReLU(nn.ReLU):
     """A ReLU that is not ``nn.ReLU`` itself: the networks fall back to autograd + autocast layers."""
 
@@ -59,6 +64,8 @@ LEVERS = {
     "fused Adam instead of foreach Adam": (base.torch.optim, "Adam", _FusedAdam),
     "autograd + autocast layers instead of the hand-written ReLU layers": (networks.ACTIVATIONS, "relu",
                                                                           _AutogradReLU),
+    "the joint layer's output left strided (hand-written layers; bf16 paths)": (networks, "_group_major",
+                                                                                _strided_group_major),
 }
 PRECISION_VARIANTS = {  # label: (precision, patched to the autograd layers)
     "fp32, autograd layers (before)": ("fp32", True),
@@ -79,12 +86,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=4)
     parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
+    parser.add_argument("--precision", default="fp32", choices=["fp32", "bf16", "bf16_targets"],
+                        help="the precision the levers are tried in")
     parser.add_argument("--precision-only", action="store_true", help="only the fp32 / bf16 comparison")
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
     logging.getLogger("torchrl").setLevel(logging.WARNING)
-    print(f"# levers, PER-MATD3 gradient step, torch {torch.__version__}, {torch.get_num_threads()} threads\n")
+    print(f"# levers, PER-MATD3 gradient step, precision={args.precision}, torch {torch.__version__}, "
+          f"{torch.get_num_threads()} threads\n")
     if not args.precision_only:
         print("| alternative | shipped ms | alternative ms | alternative / shipped | CPU ms shipped | CPU ms alt. | "
               "CPU alt. / shipped |")
@@ -92,9 +102,9 @@ def main() -> None:
         for label, (target, name, value) in LEVERS.items():
             shipped, alt = [], []
             for _ in range(args.rounds):
-                shipped.append(tt.grad_step("per_matd3", steps=15))
+                shipped.append(tt.grad_step("per_matd3", steps=15, precision=args.precision))
                 with _patched(target, name, value):
-                    alt.append(tt.grad_step("per_matd3", steps=15))
+                    alt.append(tt.grad_step("per_matd3", steps=15, precision=args.precision))
             (s, sc), (a, ac) = _medians(shipped), _medians(alt)
             print(f"| {label} | {s:.1f} | {a:.1f} | {a / s:.2f} | {sc:.1f} | {ac:.1f} | {ac / sc:.2f} |", flush=True)
         print()
