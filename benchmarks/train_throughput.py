@@ -305,29 +305,27 @@ def main() -> None:
     say("| algorithm | frames/s | " + " | ".join(cols) + " | not the update |")
     say("|---|---:|" + "---:|" * (len(cols) + 1))
     out["end_to_end"] = {}
-    for name in ALGOS:
-        r = end_to_end(name, frames)
-        out["end_to_end"][name] = r
+
+    def e2e_row(label: str, r: dict) -> None:
         s = r["split"]
-        say(f"| {name} | {r['fps']:,.0f} | " + " | ".join(f"{100 * s.get(c, 0):.1f}%" for c in cols)
+        say(f"| {label} | {r['fps']:,.0f} | " + " | ".join(f"{100 * s.get(c, 0):.1f}%" for c in cols)
             + f" | {100 * (1 - s['update']):.1f}% |")
         sys.stdout.flush()
 
+    for name in ALGOS:
+        out["end_to_end"][name] = r = end_to_end(name, frames)
+        e2e_row(name, r)
+    projections = {"fp32": out["end_to_end"]["per_matd3"]}  # precision: its PER-MATD3 run
     if out["precision"]["bf16_targets"]:  # the same run with the update in bf16, target passes included
-        r = end_to_end("per_matd3", frames, precision="bf16_targets")
-        out["end_to_end_bf16_targets"] = r
-        s = r["split"]
-        say("| per_matd3, precision=bf16_targets | " + f"{r['fps']:,.0f} | "
-            + " | ".join(f"{100 * s.get(c, 0):.1f}%" for c in cols) + f" | {100 * (1 - s['update']):.1f}% |")
+        out["end_to_end_bf16_targets"] = projections["bf16_targets"] = r = end_to_end(
+            "per_matd3", frames, precision="bf16_targets")
+        e2e_row("per_matd3, precision=bf16_targets", r)
 
     evals = PAPER_FRAMES // 500_000  # conf/budget/paper.yaml: every 500k frames, 1,000 episodes
     ev = eval_seconds(1000)
-    for key, label in (("end_to_end", "fp32"), ("end_to_end_bf16_targets", "bf16_targets")):
-        if key not in out:
-            continue
-        per = out[key]["per_matd3"] if key == "end_to_end" else out[key]
+    for label, per in projections.items():
         projected = PAPER_FRAMES / per["fps"] + (evals + 1) * ev
-        out["paper_projection" if label == "fp32" else "paper_projection_bf16_targets"] = {
+        out["paper_projection" if label == "fp32" else f"paper_projection_{label}"] = {
             "frames": PAPER_FRAMES, "grad_steps": PAPER_FRAMES // PAPER_RATIO, "fps": per["fps"],
             "eval_seconds": ev, "evaluations": evals + 1, "minutes": projected / 60}
         say(f"\nProjected paper budget, PER-MATD3, precision={label} (9M frames, 90,000 gradient steps, "

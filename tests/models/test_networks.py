@@ -118,12 +118,13 @@ def test_bf16_targets_lowers_the_updates_target_passes_only(activation):
             return actor(td(obs))["agents", "action"], critic(td(obs, act))["agents", "state_action_value"]
 
     fp32 = outputs()
+
+    def same(outs):
+        return all(torch.allclose(a, b, atol=1e-6, rtol=1e-5) for a, b in zip(outs, fp32, strict=True))
+
     for precision in ("bf16", "bf16_targets"):
         set_precision(actor, precision)
         set_precision(critic, precision)
-        def same(outs):
-            return all(torch.allclose(a, b, atol=1e-6, rtol=1e-5) for a, b in zip(outs, fp32, strict=True))
-
         assert same(outputs())
         with target_passes():
             low = outputs()
