@@ -8,7 +8,8 @@ Reads finished run directories (TensorBoard events and ``metrics.json``), writes
 - ``precision_ab.png``: the critics' Q-value and TD-error curves and the evaluation success, per
   precision (thin lines: seeds, thick: their mean).
 
-    python benchmarks/precision_ab.py --fp32 RUN... --bf16 RUN... [--bf16-targets RUN...] --out DIR
+    python benchmarks/precision_ab.py --fp32 RUN... --bf16 RUN... [--bf16-targets RUN...]
+        [--fp32-hand-written RUN...] --out DIR
 """
 
 from __future__ import annotations
@@ -63,11 +64,16 @@ def main() -> None:
     p.add_argument("--fp32", nargs="+", type=Path, required=True)
     p.add_argument("--bf16", nargs="+", type=Path, default=[])
     p.add_argument("--bf16-targets", nargs="+", type=Path, default=[])
+    p.add_argument("--fp32-hand-written", nargs="+", type=Path, default=[],
+                   help="fp32 runs made through the bf16 paths' hand-written layers (PerRobotMLP.hand_written=True, a"
+                        " one-line patch): tells bf16 rounding from the layers' other summation order")
     p.add_argument("--out", type=Path, required=True)
     args = p.parse_args()
-    groups = {g: r for g, r in (("fp32", args.fp32), ("bf16", args.bf16), ("bf16_targets", args.bf16_targets)) if r}
+    arms = (("fp32", args.fp32), ("bf16", args.bf16), ("bf16_targets", args.bf16_targets),
+            ("fp32_hand_written", args.fp32_hand_written))
+    groups = {g: r for g, r in arms if r}
     if len(groups) < 2:
-        p.error("--bf16 or --bf16-targets: at least one arm to set beside --fp32")
+        p.error("--bf16, --bf16-targets or --fp32-hand-written: at least one arm to set beside --fp32")
     args.out.mkdir(parents=True, exist_ok=True)
 
     lines = ["| metric | " + " | ".join(f"{g} (mean ± 95% CI, n={len(r)})" for g, r in groups.items())
@@ -91,7 +97,7 @@ def main() -> None:
 
     fig, axes = plt.subplots(1, len(CURVES), figsize=(5 * len(CURVES), 3.6))
     for (tag, title), ax in zip(CURVES, axes, strict=True):
-        for g, color in zip(groups, ("tab:blue", "tab:orange", "tab:green"), strict=False):
+        for g, color in zip(groups, ("tab:blue", "tab:orange", "tab:green", "tab:red"), strict=False):
             curves = [scalars(r).get(tag) for r in groups[g]]
             curves = [c for c in curves if c]
             for x, y in curves:
