@@ -3,8 +3,9 @@
 On the held-out episodes of ``make eval`` (same seed, the checkpoint's own world), success (reference.md, Metrics)
 is split into its three parts: the leader within ``rho_g`` of the goal at the last step, no
 robot-robot collision, no robot-obstacle collision; and each episode's first collision of either
-kind is timed. Prints a table per controller and writes ``failures.json`` and
-``first_collision.png`` (when the first collisions happen, one line per controller) into ``out``.
+kind is timed. Prints a table per controller and writes ``failures.json``, ``first_collision.png`` (when the
+first collisions happen, one line per controller) and ``formation_error.png`` (the formation error and the
+share of episodes with the chain active, per step) into ``out``.
 """
 
 from __future__ import annotations
@@ -31,13 +32,13 @@ class DiagnoseConfig:
     ckpt: Any = None  # policy.pt, last.pt, a run directory or apf; or a list of them, diagnosed side by side
     episodes: int = 1000  # held-out episodes per controller
     seed: int = EVAL_SEED  # make eval's held-out scenarios
-    out: str = "outputs/diagnose"  # where failures.json and first_collision.png go
+    out: str = "outputs/diagnose"  # where failures.json, first_collision.png and formation_error.png go
 
 
 ConfigStore.instance().store(name="diagnose_schema", node=DiagnoseConfig)
 
 
-def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path) -> Path:
+def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -59,7 +60,25 @@ def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path)
     fig.tight_layout()
     fig.savefig(out / "first_collision.png", dpi=120)
     plt.close(fig)
-    return out / "first_collision.png"
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    for name, per_episode in results.items():
+        for ax, key in zip(axes, ("formation_error_per_step", "in_area_per_step"), strict=True):
+            curve = per_episode[key].mean(0)
+            scale = 100 if key == "in_area_per_step" else 1
+            ax.plot(range(1, len(curve) + 1), scale * curve.numpy(), label=name)
+    axes[0].set_title("formation error (RFSE is its mean over steps)")
+    axes[0].set_ylabel("sum over constrained pairs of |d - d*| (m)")
+    axes[1].set_title("leader in the obstacle area (the chain active)")
+    axes[1].set_ylabel("episodes (%)")
+    for ax in axes:
+        ax.set_xlabel("step (0.1 s)")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "formation_error.png", dpi=120)
+    plt.close(fig)
+    return [out / "first_collision.png", out / "formation_error.png"]
 
 
 def format_rows(name: str, b: dict[str, float]) -> str:
@@ -72,7 +91,8 @@ def format_rows(name: str, b: dict[str, float]) -> str:
             f"  leader ends at a wall: {100 * b['leader_at_wall']:.1f}%; saturated action components (|a| > 0.99): "
             f"{100 * b['saturated_actions']:.1f}%\n"
             f"  followers' distance to the leader at the end: {b['follower_distance_end']:.2f} m; steps with the "
-            f"leader in the obstacle area (chain active): {100 * b['leader_in_area_steps']:.1f}%")
+            f"leader in the obstacle area (chain active): {100 * b['leader_in_area_steps']:.1f}%; episodes whose "
+            f"leader enters it: {100 * b['leader_enters_area']:.1f}%")
 
 
 def _edge(cfg: EnvConfig) -> float:
@@ -99,10 +119,10 @@ def run(cfg: DiagnoseConfig) -> tuple[dict[str, dict[str, float]], list[Path]]:
         out.mkdir(parents=True, exist_ok=True)
         (out / "failures.json").write_text(json.dumps({"episodes": cfg.episodes, "seed": cfg.seed,
                                                        "controllers": rows}, indent=2))
-        fig = plot(results, max(p.env_config.max_steps for p in policies.values()), out)
+        figs = plot(results, max(p.env_config.max_steps for p in policies.values()), out)
     except OSError as err:
         raise ValueError(f"out = {str(out)!r} is invalid: cannot write there: {err.strerror or err}") from None
-    return rows, [out / "failures.json", fig]
+    return rows, [out / "failures.json", *figs]
 
 
 @hydra.main(config_path=str(CONF), config_name="diagnose", version_base=None)
@@ -110,7 +130,7 @@ def run(cfg: DiagnoseConfig) -> tuple[dict[str, dict[str, float]], list[Path]]:
 def main(cfg: DictConfig) -> None:
     rows, written = run(OmegaConf.to_object(cfg))
     print("\n".join(format_rows(c, b) for c, b in rows.items()))
-    print(f"wrote {' and '.join(map(str, written))}")
+    print(f"wrote {', '.join(map(str, written))}")
 
 
 if __name__ == "__main__":

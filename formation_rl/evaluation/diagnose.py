@@ -32,11 +32,14 @@ def failure_metrics(rollout: TensorDictBase, goal_radius: float, edge: float | N
     robot-robot and robot-obstacle collision and of its last robot-robot collision (0: none), whether the
     leader ends at a wall (within ``WALL`` of ``edge``, the farthest a centre goes: arena_half_size -
     robot_radius, the default world's if None), the share of saturated action components (|a| > 0.99), the
-    followers' mean distance to the leader at the last step (m) and the share of steps with the leader
-    inside the obstacle area (where the hybrid reward asks for the chain)."""
+    followers' mean distance to the leader at the last step (m), the share of steps with the leader
+    inside the obstacle area (where the hybrid reward asks for the chain), whether it enters that area at
+    all, and the per-step curves ``[B, T]`` of the formation error (RFSE's per-step sum) and of the
+    leader's being inside the area."""
     robot, obstacle = rollout["next", "robot_collision"][..., 0], rollout["next", "obstacle_collision"][..., 0]
     final = rollout["next", "state", "positions"][:, -1]  # [B, N, 2] at the last step
     leader = final[:, 0]
+    in_area = rollout["next", "in_obstacle_area"][..., 0].double()  # [B, T]
     if edge is None:
         spec = EnvConfig()
         edge = spec.arena_half_size - spec.robot_radius
@@ -50,13 +53,17 @@ def failure_metrics(rollout: TensorDictBase, goal_radius: float, edge: float | N
         "first_obstacle_collision": first_step(obstacle).double(),
         # a team that stays together, and one that crosses the obstacle area (the chain formation's steps)
         "follower_distance_end": (final[:, 1:] - final[:, :1]).norm(dim=-1).mean(-1).double(),
-        "leader_in_area_steps": rollout["next", "in_obstacle_area"][..., 0].double().mean(1),
+        "leader_in_area_steps": in_area.mean(1),
+        "leader_enters_area": in_area.amax(1),
+        "formation_error_per_step": rollout["next", "formation_error"][..., 0].double(),  # [B, T]
+        "in_area_per_step": in_area,  # [B, T]
     }
 
 
 def breakdown(per_episode: dict[str, torch.Tensor]) -> dict[str, float]:
     """Fractions of episodes: the parts of success, and first robot-robot collision per window of steps;
-    then the means of the followers' final distance to the leader (m) and of the leader's obstacle-area steps."""
+    then the means of the followers' final distance to the leader (m), of the leader's obstacle-area steps and
+    of the episodes whose leader enters that area."""
     out = {k: per_episode[k].mean().item() for k in PARTS}
     first = per_episode["first_robot_collision"]
     for lo, hi in BINS:
@@ -65,4 +72,5 @@ def breakdown(per_episode: dict[str, torch.Tensor]) -> dict[str, float]:
     out["robot_collision_only_in_first_20"] = ((first >= 1) & (last <= 20)).double().mean().item()
     out["follower_distance_end"] = per_episode["follower_distance_end"].mean().item()
     out["leader_in_area_steps"] = per_episode["leader_in_area_steps"].mean().item()
+    out["leader_enters_area"] = per_episode["leader_enters_area"].mean().item()
     return out

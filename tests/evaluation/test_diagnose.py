@@ -48,3 +48,5 @@ def test_follower_distance_and_area_steps():
     m = failure_metrics(rollout, 0.05)
     assert m["follower_distance_end"].tolist() == [2.5, 0.0]
     assert m["leader_in_area_steps"].tolist() == [0.0, 2 / 3]
+    assert m["leader_enters_area"].tolist() == [0.0, 1.0]
+    assert m["in_area_per_step"].tolist() == [[0.0, 0.0, 0.0], [0.0, 1.0, 1.0]]
