@@ -32,7 +32,7 @@ def main(cfg: DictConfig) -> float:
     metrics = trainer.train()
     (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
     width = max(map(len, metrics))
-    log.info(f"final evaluation ({cfg.eval_episodes} held-out episodes):")
+    log.info(f"final evaluation ({cfg.eval_episodes} validation episodes, seed {cfg.eval_seed}):")
     log.info("\n".join(f"  {k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
     log.info(f"wall time {trainer.timings.total():.0f} s: {trainer.timings.summary()}")
     log.info(f"run directory: {run_dir}")

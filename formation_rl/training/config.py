@@ -35,8 +35,8 @@ class TrainConfig:
     compile_env: bool = False  # torch.compile the env's step program (faster at large num_envs)
     cudagraphs: bool = False  # replay each gradient step from CUDA graphs (device=cuda; the policy is not graphed)
     eval_interval: int = 100_000  # frames between deterministic evaluations (and at the end)
-    eval_episodes: int = 100  # held-out episodes per evaluation, run as that many batched copies
-    eval_seed: int = 1_000_000_007  # scenario seed of the evaluation set, disjoint from training seeds
+    eval_episodes: int = 100  # validation episodes per evaluation (eval_seed, not make eval's test set), batched
+    eval_seed: int = 1_000_000_007  # scenario seed of the validation set, disjoint from training and test seeds
     checkpoint_interval: int = 100_000  # frames between checkpoints (and at the end)
     save_buffer: bool = False  # also checkpoint the replay buffer, inside last.pt (large: ~1 kB per frame)
     resume: str | None = None  # a checkpoint file or run directory to continue from; "auto": this run's

@@ -194,7 +194,7 @@ class Trainer:
     # ------------------------------------------------------------------ evaluation
     @torch.no_grad()
     def evaluate(self) -> dict[str, float]:
-        """Deterministic actors on the fixed held-out set (``eval_episodes`` copies, ``eval_seed``)."""
+        """Deterministic actors on the fixed validation set (``eval_episodes`` copies, ``eval_seed``)."""
         self.eval_env.set_seed(self.cfg.eval_seed)
         with self.timings("evaluation"), set_exploration_type(ExplorationType.DETERMINISTIC):
             rollout = self.eval_env.rollout(self.cfg.env.max_steps, self.actor, break_when_any_done=False)
