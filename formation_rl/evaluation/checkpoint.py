@@ -12,6 +12,7 @@ import torch
 import formation_rl
 
 POLICY = "checkpoints/policy.pt"
+BEST_POLICY = "checkpoints/best_policy.pt"  # the actors of the run's best validation evaluation
 FORMAT = 1  # checkpoint format version
 
 

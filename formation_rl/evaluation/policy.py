@@ -100,11 +100,12 @@ def classical_policy(env_config: EnvConfig | None = None, device: str | torch.de
 
 
 def policy_path(path: str | Path) -> Path:
-    """``policy.pt`` itself, the one beside a ``last.pt``, or the one of a run directory."""
+    """A policy file itself (``policy.pt``, ``best_policy.pt``, a pretrained one), the ``policy.pt`` beside a
+    ``last.pt``, or the one of a run directory."""
     p = Path(path)
     if p.is_dir():
         p = p / POLICY if (p / POLICY).exists() else p / "policy.pt"
-    elif p.name != "policy.pt" and (p.parent / "policy.pt").exists():
+    elif p.name == "last.pt" and (p.parent / "policy.pt").exists():
         p = p.parent / "policy.pt"
     if not p.is_file():
         raise ValueError(f"ckpt = {str(path)!r} is invalid: no policy.pt at {p}")
@@ -114,13 +115,14 @@ def policy_path(path: str | Path) -> Path:
 def output_dir(kind: str, ckpt: str | Path) -> Path:
     """Where ``make eval`` / ``make render`` (``kind``: eval, render) write by default: ``outputs/<kind>/<name>``,
     never beside the checkpoint. ``name``: ``apf``, the checkpoint file's stem (``pretrained/per_matd3.pt``:
-    ``per_matd3``), or for a ``policy.pt`` / ``last.pt`` the run directory's name."""
+    ``per_matd3``), or for a ``policy.pt`` / ``last.pt`` the run directory's name (``<name>_best`` for its
+    ``best_policy.pt``)."""
     if is_classical(ckpt):
         return Path("outputs") / kind / CLASSICAL
     p = policy_path(ckpt).resolve()
-    if p.stem in ("policy", "last"):
+    if p.stem in ("policy", "last", "best_policy"):
         run = p.parent.parent if p.parent.name == "checkpoints" else p.parent
-        return Path("outputs") / kind / run.name
+        return Path("outputs") / kind / (run.name + ("_best" if p.stem == "best_policy" else ""))
     return Path("outputs") / kind / p.stem
 
 

@@ -1,5 +1,7 @@
-"""Checkpoint I/O of a run: ``checkpoints/last.pt`` (the trainer's ``state_dict``: everything a resume needs)
-and ``checkpoints/policy.pt`` (the actors alone), each written so that a crash never leaves a half-written one.
+"""Checkpoint I/O of a run: ``checkpoints/last.pt`` (the trainer's ``state_dict``: everything a resume needs),
+``checkpoints/policy.pt`` (the actors alone) and ``checkpoints/best_policy.pt`` (the actors of the best
+validation evaluation so far, success then RFSE, with its ``validation`` numbers), each written so that a
+crash never leaves a half-written one.
 
 The file format and its reader live in :mod:`formation_rl.evaluation.checkpoint` (loading a policy needs them).
 """
@@ -11,9 +13,9 @@ from pathlib import Path
 
 import torch
 
-from formation_rl.evaluation.checkpoint import FORMAT, POLICY, load_checkpoint_file
+from formation_rl.evaluation.checkpoint import BEST_POLICY, FORMAT, POLICY, load_checkpoint_file
 
-__all__ = ["CHECKPOINT", "FORMAT", "POLICY", "atomic_save", "load_checkpoint_file", "resolve_checkpoint"]
+__all__ = ["BEST_POLICY", "CHECKPOINT", "FORMAT", "POLICY", "atomic_save", "load_checkpoint_file", "resolve_checkpoint"]
 
 CHECKPOINT = "checkpoints/last.pt"
 

@@ -31,6 +31,7 @@ from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
 from formation_rl.models import make_actor, make_critic, set_precision
 from formation_rl.models.controller import APFController, residual_base
 from formation_rl.training.checkpoint import (
+    BEST_POLICY,
     CHECKPOINT,
     FORMAT,
     POLICY,
@@ -104,6 +105,7 @@ class Trainer:
         self.next_eval, self.next_checkpoint = cfg.eval_interval, cfg.checkpoint_interval
         self.last_eval: dict[str, float] = {}
         self.eval_frame = -1  # frames at the last evaluation
+        self.best: dict | None = None  # best validation so far: frames, success, RFSE (BEST_POLICY: its actors)
         self.logger: TensorboardLogger | None = None
         self.on_evaluate: list = []  # callables (frames, metrics) run after every evaluation
         self._rng = _rng_state()  # train() starts from here, whatever ran in between (or the checkpoint's)
@@ -203,6 +205,10 @@ class Trainer:
             for k, v in metrics.items():
                 self.logger.log_scalar(f"eval/{k}", v, step=self.frames)
         self.last_eval, self.eval_frame = metrics, self.frames
+        if self.frames > 0 and _better(metrics, self.best):
+            self.best = {"frames": self.frames, "success": metrics["success"], "RFSE": metrics["RFSE"]}
+            with self.timings("checkpoint"):
+                atomic_save({**self.policy_state(), "validation": dict(self.best)}, self.run_dir / BEST_POLICY)
         for hook in self.on_evaluate:  # e.g. a tuning study's pruner (it may raise to stop the run)
             hook(self.frames, metrics)
         return metrics
@@ -253,7 +259,7 @@ class Trainer:
             "algo": self.algo.state_dict(),
             "noise": self.noise.state_dict(),
             "counters": {"frames": self.frames, "episodes": self.episodes, "next_eval": self.next_eval,
-                         "next_checkpoint": self.next_checkpoint},
+                         "next_checkpoint": self.next_checkpoint, "best": self.best},
             "rng": {**_rng_state(), "env": self.env.rng_state()},
             "buffer": self.buffer.state_dict() if self.cfg.save_buffer else None,
         }
@@ -276,6 +282,7 @@ class Trainer:
         c = state["counters"]
         self.frames, self.episodes = c["frames"], c["episodes"]
         self.next_eval, self.next_checkpoint = c["next_eval"], c["next_checkpoint"]
+        self.best = c.get("best")  # absent in checkpoints written before best_policy.pt existed
         self._resumed_frames = self.frames
         self.env.set_rng_state(state["rng"]["env"])
         self._rng = state["rng"]
@@ -316,6 +323,11 @@ class Trainer:
         torch.manual_seed(seed)
         np.random.seed(seed % 2**32)
         random.seed(seed)
+
+
+def _better(metrics: dict[str, float], best: dict | None) -> bool:
+    """Validation success first, then the lower RFSE (so before any success, the tightest formation)."""
+    return best is None or (metrics["success"], -metrics["RFSE"]) > (best["success"], -best["RFSE"])
 
 
 def _rng_state() -> dict:

@@ -126,3 +126,28 @@ def test_resume_rejects_another_team(tmp_path):
     (tmp_path / CHECKPOINT).write_bytes(b"not a checkpoint")
     with pytest.raises(ValueError, match=r"^checkpoint \S*last.pt cannot be read \(\w+\): it is truncated or corrupt$"):
         Trainer(tiny("matd3", frames=1600), tmp_path).load_checkpoint("auto")
+
+
+def test_best_policy_holds_the_best_validation_and_survives_a_resume(tmp_path):
+    """checkpoints/best_policy.pt: the actors of the evaluation with the highest validation success, then the
+    lowest RFSE (frame 0 excluded); load_policy and make eval read it as itself, and a resume keeps the record."""
+    from formation_rl import load_policy
+    from formation_rl.evaluation.policy import output_dir, policy_path
+    from formation_rl.training.checkpoint import BEST_POLICY
+
+    first = Trainer(tiny("matd3", frames=3200), tmp_path)
+    first.train()
+    tags = scalars(tmp_path)
+    evals = {s: (v, -r) for (s, v), (_, r) in zip(tags["eval/success"], tags["eval/RFSE"], strict=True) if s > 0}
+    frames = max(evals, key=evals.get)
+    best = load_checkpoint_file(tmp_path / BEST_POLICY)
+    assert best["validation"]["frames"] == frames == first.best["frames"]
+    assert best["validation"]["RFSE"] == pytest.approx(-evals[frames][1])
+    assert policy_path(tmp_path / BEST_POLICY) == tmp_path / BEST_POLICY  # not the policy.pt beside it
+    assert output_dir("eval", tmp_path / BEST_POLICY).name == tmp_path.name + "_best"
+    loaded = load_policy(tmp_path / BEST_POLICY)
+    for a, b in zip(loaded.actor.state_dict().values(), best["actor"].values(), strict=True):
+        assert torch.equal(a, b)
+    second = Trainer(tiny("matd3", frames=4800), tmp_path)
+    second.load_checkpoint("auto")
+    assert second.best == first.best
