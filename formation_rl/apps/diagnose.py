@@ -38,6 +38,13 @@ class DiagnoseConfig:
 ConfigStore.instance().store(name="diagnose_schema", node=DiagnoseConfig)
 
 
+def _legend_below(fig, ax, rows: int) -> None:
+    """One legend row per controller under the plots (checkpoint paths are long: inside they hide the curves)."""
+    fig.set_figheight(3.8 + 0.22 * rows)
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.22 * rows / (3.8 + 0.22 * rows) + 0.01, 1, 1))
+
+
 def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path) -> list[Path]:
     import matplotlib
 
@@ -56,8 +63,7 @@ def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path)
         ax.set_xlabel("step (0.1 s)")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("episodes collided by then (%)")
-    axes[0].legend(fontsize=8)
-    fig.tight_layout()
+    _legend_below(fig, axes[0], len(results))
     fig.savefig(out / "first_collision.png", dpi=120)
     plt.close(fig)
 
@@ -74,8 +80,7 @@ def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path)
     for ax in axes:
         ax.set_xlabel("step (0.1 s)")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
-    fig.tight_layout()
+    _legend_below(fig, axes[0], len(results))
     fig.savefig(out / "formation_error.png", dpi=120)
     plt.close(fig)
     return [out / "first_collision.png", out / "formation_error.png"]
