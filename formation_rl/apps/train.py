@@ -1,7 +1,7 @@
 """Train MADDPG / MATD3 / PER-MATD3: ``python -m formation_rl.apps.train algo=per_matd3 [overrides]``.
 
-Writes TensorBoard events (``tb/``), checkpoints (``checkpoints/last.pt``, ``checkpoints/policy.pt``)
-and the final evaluation (``metrics.json``) into the Hydra run directory.
+Writes TensorBoard events (``tb/``), checkpoints (``checkpoints/last.pt``, ``checkpoints/policy.pt``,
+``checkpoints/best_policy.pt``) and the final evaluation (``metrics.json``) into the Hydra run directory.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from formation_rl.apps.cli import CONF, one_line_errors
+from formation_rl.training.checkpoint import BEST_POLICY
 from formation_rl.training.config import register
 from formation_rl.training.trainer import Trainer, to_train_config
 
@@ -34,6 +35,10 @@ def main(cfg: DictConfig) -> float:
     width = max(map(len, metrics))
     log.info(f"final evaluation ({cfg.eval_episodes} validation episodes, seed {cfg.eval_seed}):")
     log.info("\n".join(f"  {k:<{width}}  {v:10.3f}" for k, v in metrics.items()))
+    if trainer.best is not None:
+        b = trainer.best
+        log.info(f"best validation evaluation: success {b['success']:.3f}, RFSE {b['RFSE']:.3f} at {b['frames']:,} "
+                 f"frames -> {run_dir / BEST_POLICY} (make eval CKPT=<that file>)")
     log.info(f"wall time {trainer.timings.total():.0f} s: {trainer.timings.summary()}")
     log.info(f"run directory: {run_dir}")
     return metrics["episode_reward"]

@@ -28,6 +28,7 @@ def test_cli_tiny_run_and_errors(tmp_path):
     assert "final evaluation" in out.stdout and json.loads((tmp_path / "metrics.json").read_text())["length"] == 25
     log = (tmp_path / "train.log").read_text()  # was empty: the summary is logged, not printed
     assert "final evaluation" in log and "run directory" in log
+    assert "best validation evaluation: success" in log and (tmp_path / "checkpoints" / "best_policy.pt").is_file()
     bad = _cli("algo=ppo", f"hydra.run.dir={tmp_path}/x")
     assert bad.returncode != 0 and "maddpg" in bad.stderr and "per_matd3" in bad.stderr
     bad = _cli("algo.lr_actor=-1", f"hydra.run.dir={tmp_path}/y")
