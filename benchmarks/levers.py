@@ -43,9 +43,9 @@ def _torchrl_actor_loss(self, batch):
     return self.loss.actor_loss(batch.exclude(base.WEIGHT_KEY, base.PRIORITY_KEY))[0].mean(), {}
 
 
-class _FusedAdam(torch.optim.Adam):
+class _ForeachAdam(torch.optim.Adam):
     def __init__(self, params, **kwargs):
-        super().__init__(params, fused=True, **kwargs)
+        super().__init__(params, **{**kwargs, "fused": False, "foreach": True})
 
 
 def _strided_group_major(h, groups, width):
@@ -61,7 +61,7 @@ LEVERS = {
     "TorchRL's actor_loss (both twins evaluated) instead of Q1 only": (base.Algorithm, "_actor_loss",
                                                                      _torchrl_actor_loss),
     "twin critics in a Python loop (deactivate_vmap) instead of vmap": (matd3, "TD3Loss", _LoopTD3Loss),
-    "fused Adam instead of foreach Adam": (base.torch.optim, "Adam", _FusedAdam),
+    "foreach Adam instead of fused Adam (shipped since 2026-12-03)": (base.torch.optim, "Adam", _ForeachAdam),
     "autograd + autocast layers instead of the hand-written ReLU layers": (networks.ACTIVATIONS, "relu",
                                                                           _AutogradReLU),
     "the joint layer's output left strided (hand-written layers; bf16 paths)": (networks, "_group_major",

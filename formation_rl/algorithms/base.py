@@ -46,8 +46,9 @@ class Algorithm:
         self.actor_params = [p for p in self.loss.actor_network_params.values(True, True) if p.requires_grad]
         critic = getattr(self.loss, self.critic_params_name)
         self.critic_params = [p for p in critic.values(True, True) if p.requires_grad]
-        self.actor_optim = torch.optim.Adam(self.actor_params, lr=cfg.lr_actor)
-        self.critic_optim = torch.optim.Adam(self.critic_params, lr=cfg.lr_critic)
+        # fused Adam: 0.93-0.97x of the foreach step's wall time (benchmarks/levers.py, 4 runs, 2 CPU kinds)
+        self.actor_optim = torch.optim.Adam(self.actor_params, lr=cfg.lr_actor, fused=True)
+        self.critic_optim = torch.optim.Adam(self.critic_params, lr=cfg.lr_critic, fused=True)
         self.target_updater = SoftUpdate(self.loss, tau=cfg.tau)
         self.critic_steps = 0
         self.actor_steps = 0
