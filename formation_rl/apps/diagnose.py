@@ -40,9 +40,10 @@ ConfigStore.instance().store(name="diagnose_schema", node=DiagnoseConfig)
 
 def _legend_below(fig, ax, rows: int) -> None:
     """One legend row per controller under the plots (checkpoint paths are long: inside they hide the curves)."""
-    fig.set_figheight(3.8 + 0.22 * rows)
+    legend = 0.22 * rows  # inches
+    fig.set_figheight(fig.get_figheight() + legend)
     fig.legend(*ax.get_legend_handles_labels(), loc="lower center", fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0, 0.22 * rows / (3.8 + 0.22 * rows) + 0.01, 1, 1))
+    fig.tight_layout(rect=(0, legend / fig.get_figheight() + 0.01, 1, 1))
 
 
 def plot(results: dict[str, dict[str, torch.Tensor]], max_steps: int, out: Path) -> list[Path]:

@@ -6,8 +6,16 @@ import pytest
 import torch
 from helpers import scalars, tiny
 
+from formation_rl import load_policy
+from formation_rl.evaluation.policy import output_dir, policy_path
 from formation_rl.models import bf16_supported
-from formation_rl.training.checkpoint import CHECKPOINT, atomic_save, load_checkpoint_file, resolve_checkpoint
+from formation_rl.training.checkpoint import (
+    BEST_POLICY,
+    CHECKPOINT,
+    atomic_save,
+    load_checkpoint_file,
+    resolve_checkpoint,
+)
 from formation_rl.training.trainer import Trainer
 
 
@@ -131,10 +139,6 @@ def test_resume_rejects_another_team(tmp_path):
 def test_best_policy_holds_the_best_validation_and_survives_a_resume(tmp_path):
     """checkpoints/best_policy.pt: the actors of the evaluation with the highest validation success, then the
     lowest RFSE (frame 0 excluded); load_policy and make eval read it as itself, and a resume keeps the record."""
-    from formation_rl import load_policy
-    from formation_rl.evaluation.policy import output_dir, policy_path
-    from formation_rl.training.checkpoint import BEST_POLICY
-
     first = Trainer(tiny("matd3", frames=3200), tmp_path)
     first.train()
     tags = scalars(tmp_path)
