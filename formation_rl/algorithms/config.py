@@ -39,3 +39,6 @@ class AlgoConfig:
     exploration_anneal: float = 0.5  # fraction of total_frames over which sigma anneals (choice)
     exploration_eps: float = 0.0  # per robot and step, the chance that a uniform random action replaces the noisy
     #                               one (TorchRL's EGreedyModule; ours: lets a robot pinned at a wall try moving off)
+    her: float = 0.0  # hindsight goals (ours): this share of each collector batch's env copies is stored a second
+    #                   time with the leader's goal moved to where the leader is at a random step of that batch
+    #                   (observations and rewards measured again from the stored world states); 0: off

@@ -233,6 +233,30 @@ class FormationEnv(EnvBase):
         self._steps = kept if steps is None else torch.as_tensor(steps, device=self.device).expand_as(kept).clone()
         return self._observe(rewards=False)
 
+    def relabel_goal(self, batch: TensorDictBase, goal: torch.Tensor) -> TensorDictBase:
+        """``batch`` (steps of this env, any batch shape ``S``) as if the leader's goal had been ``goal``
+        ``[*S, 2]``: observations, next observations and rewards measured again from the stored world
+        states, under the same reward (hindsight goals, ``algo.her``; ours). The world states, actions
+        and flags are shared with ``batch``, not copied; the goal-dependent diagnostics are not redone."""
+        shape, n = batch.batch_size, self.config.num_robots
+
+        def last(key: tuple[str, ...], inner: int) -> torch.Tensor:  # batch-first [*S, ..., 2] -> batch-last
+            x = batch.get(key)
+            return x.flatten(0, len(shape) - 1).permute(*range(inner, -1, -1))
+
+        g = goal.reshape(-1, 2).T
+        centers, radii = last(("state", "obstacle_centers"), 2), last(("state", "obstacle_radii"), 1)
+        pos0, pos1 = last(("state", "positions"), 2), last(("next", "state", "positions"), 2)
+        before = self._measure(pos0, last(("state", "velocities"), 2), g, centers, radii)
+        after = self._measure(pos1, last(("next", "state", "velocities"), 2), g, centers, radii, prev_pos=pos0)
+        out = batch.clone(recurse=False)
+        out.set(("agents", "observation"), before["observation"].reshape(*shape, n, -1))
+        out.set(("next", "agents", "observation"), after["observation"].reshape(*shape, n, -1))
+        out.set(("next", "agents", "reward"), after["reward"].reshape(*shape, n, 1))
+        for key in (("state", "goal"), ("next", "state", "goal")):
+            out.set(key, goal.expand_as(batch.get(key)))
+        return out
+
     def render(self, index: int = 0, **kwargs) -> np.ndarray:
         """RGB array ``[H, W, 3]`` of copy ``index`` in its current state."""
         from formation_rl.envs.render import render_state

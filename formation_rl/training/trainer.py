@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
+from tensordict import TensorDictBase
 from tensordict.nn import TensorDictSequential
 from torchrl.collectors import Collector
 from torchrl.data.postprocs import MultiStep
@@ -147,7 +148,7 @@ class Trainer:
                     finished = self.tracker.update(data)
                     self.episodes += finished["length"].numel()
                 with timings("buffer_extend"):
-                    self.buffer.extend(to_transitions(data if self.multistep is None else self.multistep(data)))
+                    self._extend(data)
                 # one gradient step (every robot at once) per update_every collected frames
                 credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
                 losses = []
@@ -179,6 +180,19 @@ class Trainer:
         self.save_checkpoint()
         self.logger.experiment.flush()
         return final
+
+    def _extend(self, data: TensorDictBase) -> None:
+        """Store a collector batch ``[B, T]`` as transitions, and with ``algo.her`` its hindsight copies."""
+        batches = [data]
+        if self.cfg.algo.her > 0:  # one hindsight goal per chosen copy: the leader's position after a random step
+            rows = (torch.rand(data.shape[0], device=data.device) < self.cfg.algo.her).nonzero().squeeze(-1)
+            if rows.numel():
+                steps = torch.randint(data.shape[1], (rows.numel(),), device=data.device)
+                goal = data.get(("next", "state", "positions"))[rows, steps, 0]  # [R, 2]
+                part = data[rows]
+                batches.append(self.env.relabel_goal(part, goal[:, None].expand(-1, data.shape[1], 2)))
+        for batch in batches:
+            self.buffer.extend(to_transitions(batch if self.multistep is None else self.multistep(batch)))
 
     def _gradient_step(self) -> dict[str, torch.Tensor]:
         with self.timings("buffer_sample"):

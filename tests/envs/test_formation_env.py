@@ -258,3 +258,23 @@ def test_start_team_moves_the_start_square_with_the_team():
     assert not env.reset()["obstacle_collision"].any()
     single = FormationEnv(256, config=cfg, seed=0, start_anywhere=1.0).reset()["state", "positions"]
     assert ((single.amax(1) - single.amin(1)) > side + 1e-5).any()  # without it, robots spread apart
+
+
+def test_relabel_goal_measures_observations_and_rewards_again_under_the_new_goal():
+    env = FormationEnv(4, config={"relative_positions": True, "num_robots": 3, "num_obstacles": 2}, seed=0)
+    td = env.rollout(30, break_when_any_done=False)  # [4, 30]
+    same = env.relabel_goal(td, td.get(("state", "goal")))
+    for key in (("agents", "observation"), ("next", "agents", "observation"), ("next", "agents", "reward")):
+        torch.testing.assert_close(same.get(key), td.get(key))
+    reached = td.get(("next", "state", "positions"))[:, 10, 0]  # [4, 2]: where the leader is after step 10
+    moved = env.relabel_goal(td, reached[:, None].expand(4, 30, 2))
+    reward = moved.get(("next", "agents", "reward"))
+    hit = (td.get(("next", "robot_collision")) | td.get(("next", "obstacle_collision")))[:, 10, 0]
+    expect = torch.where(hit, reward[:, 10, 0, 0], torch.full((4,), env.config.reward.goal))
+    torch.testing.assert_close(reward[:, 10, 0, 0], expect)  # the leader's goal event at that step
+    torch.testing.assert_close(reward[..., 1:, :], td.get(("next", "agents", "reward"))[..., 1:, :])  # followers
+    obs = moved.get(("next", "agents", "observation"))
+    torch.testing.assert_close(obs[:, 10, 0, 4:6], torch.zeros(4, 2))  # p_lea - p_g = 0 there
+    torch.testing.assert_close(obs[..., 1:, :], td.get(("next", "agents", "observation"))[..., 1:, :])
+    torch.testing.assert_close(td.get(("state", "goal")), same.get(("state", "goal")))  # the batch is untouched
+    assert not torch.equal(moved.get(("state", "goal")), td.get(("state", "goal")))

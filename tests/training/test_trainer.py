@@ -102,3 +102,19 @@ def test_exploration_eps_replaces_actions_with_uniform_ones_during_collection_on
     cfg.algo.exploration_eps = 1.5
     with pytest.raises(ValueError, match=r"^algo.exploration_eps = 1.5 is invalid: must be in \[0, 1\]"):
         Trainer(cfg, tmp_path / "bad")
+
+
+def test_her_stores_hindsight_copies_of_the_chosen_env_copies(tmp_path):
+    cfg = tiny(frames=320)
+    cfg.algo.her = 1.0
+    trainer = Trainer(cfg, tmp_path)
+    trainer.train()
+    assert len(trainer.buffer) == 2 * 320  # every copy twice: as collected and with a hindsight goal
+    stored = trainer.buffer.storage.get(torch.arange(len(trainer.buffer)))
+    real, hindsight = stored[:160], stored[160:320]  # the first collector batch, then its relabelled copy
+    torch.testing.assert_close(real.get(("agents", "action")), hindsight.get(("agents", "action")))
+    leader_to_goal = [part.get(("agents", "observation"))[:, 0, 4:6] for part in (real, hindsight)]
+    assert not torch.equal(*leader_to_goal)
+    cfg.algo.her = -0.1
+    with pytest.raises(ValueError, match=r"^algo.her = -0.1 is invalid: must be in \[0, 1\]"):
+        Trainer(cfg, tmp_path / "bad")
