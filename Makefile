@@ -4,6 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 ARGS ?=
 ALGO ?= per_matd3
+RECIPE ?= hindsight
 RUNS ?= outputs
 CKPT ?=
 JOBS ?= $(shell nproc)
@@ -28,8 +29,8 @@ $(PY): pyproject.toml
 
 setup: $(PY)  ## create .venv and install the package with its dev tools
 
-train: $(PY)  ## train ALGO (maddpg | matd3 | per_matd3) on the short default budget; ARGS = Hydra overrides
-	$(PY) -m formation_rl.apps.train algo=$(ALGO) $(ARGS)
+train: $(PY)  ## train ALGO with RECIPE (hindsight: our from-scratch recipe, ~15 min; paper: the paper's setup, 3 min); ARGS = Hydra overrides
+	$(PY) -m formation_rl.apps.train algo=$(ALGO) recipe=$(RECIPE) $(ARGS)
 
 train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradient steps)
 	$(PY) -m formation_rl.apps.train algo=$(ALGO) budget=paper $(ARGS)

@@ -33,6 +33,8 @@ def test_make_tensorboard_passes_args():
     ("compare", ["RUNS=outputs/sweep docs/results", "ARGS=by=env.reward.variant"],
      "-m formation_rl.apps.report 'runs=[outputs/sweep,docs/results]' by=env.reward.variant"),
     ("ceiling", ["ARGS=trials=10 ranges=[0.2,0.4]"], "-m formation_rl.apps.ceiling trials=10 ranges=[0.2,0.4]"),
+    ("train", [], "-m formation_rl.apps.train algo=per_matd3 recipe=hindsight"),  # the README's first command
+    ("train", ["RECIPE=paper", "ARGS=seed=1"], "-m formation_rl.apps.train algo=per_matd3 recipe=paper seed=1"),
 ])
 def test_make_passes_ckpt_and_runs_as_one_hydra_list(target, variables, expected):
     assert command(target, *variables).endswith(expected)

@@ -45,11 +45,22 @@ class TrainConfig:
     precision: str = "fp32"  # fp32 | bf16: the update's forward and backward in bf16 (hidden layers; fp32 weights,
     #                          optimiser, output layers, TD targets and priorities) | bf16_targets: the TD targets'
     #                          hidden layers in bf16 too (their output layers, arithmetic and the priorities fp32);
-    #                          both need a CPU with AVX512-BF16/AMX or a GPU with bf16
+    #                          both need a CPU with AVX512-BF16/AMX or a GPU with bf16 | auto: bf16_targets where the
+    #                          device has native bf16, else fp32 (the run's config records which)
 
 
 def register() -> None:
     ConfigStore.instance().store(name="train_schema", node=TrainConfig)
+
+
+def resolve_precision(precision: str, device: str) -> str:
+    """``auto`` -> ``bf16_targets`` on a device with native bf16 (its learning A/B: docs/RESULTS.md, Precision),
+    else ``fp32``; any other value as it is."""
+    if precision != "auto":
+        return precision
+    from formation_rl.models import bf16_supported
+
+    return "bf16_targets" if bf16_supported(device) else "fp32"
 
 
 def validate(cfg: TrainConfig) -> None:
@@ -100,8 +111,8 @@ def validate(cfg: TrainConfig) -> None:
     from formation_rl.models import bf16_supported
     from formation_rl.models.networks import PRECISIONS
 
-    check(cfg.precision in PRECISIONS, "precision", cfg.precision, " or ".join(PRECISIONS))
-    if cfg.precision != "fp32":
+    check(cfg.precision in (*PRECISIONS, "auto"), "precision", cfg.precision, " or ".join((*PRECISIONS, "auto")))
+    if cfg.precision not in ("fp32", "auto"):
 
         check(bf16_supported(cfg.device), "precision", cfg.precision,
               f"fp32 on this {cfg.device}: it has no native bf16 (CPU: AVX512-BF16 or AMX; GPU: bf16 support), "

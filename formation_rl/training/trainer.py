@@ -40,7 +40,7 @@ from formation_rl.training.checkpoint import (
     load_checkpoint_file,
     resolve_checkpoint,
 )
-from formation_rl.training.config import TrainConfig, validate
+from formation_rl.training.config import TrainConfig, resolve_precision, validate
 from formation_rl.training.replay import make_replay_buffer, to_transitions
 from formation_rl.training.timing import Timings
 
@@ -59,6 +59,7 @@ class Trainer:
     def __init__(self, cfg: TrainConfig, run_dir: str | Path):
         validate(cfg)
         cfg.env.validate()
+        cfg = dataclasses.replace(cfg, precision=resolve_precision(cfg.precision, cfg.device))
         self.cfg, self.run_dir = cfg, Path(run_dir)
         _check_writable(self.run_dir)
         if cfg.threads:

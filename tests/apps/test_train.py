@@ -1,5 +1,6 @@
 """formation_rl.apps.train: the command line, multirun, refused calls, the Hydra budgets it composes."""
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -7,7 +8,6 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import scalars
 
 from formation_rl.training.trainer import Trainer, to_train_config
 
@@ -67,21 +67,18 @@ def test_refused_calls_leave_no_run_directory(module, args, tmp_path):
 
 
 @pytest.mark.slow
-def test_default_budget_learning_check(tmp_path):
-    """`make train` (PER-MATD3, default budget): evaluation against the untrained policy's (frame 0)."""
+def test_make_train_learning_check(tmp_path):
+    """`make train` (recipe=hindsight, ~15 min): its success floor on the 200 validation episodes. Two seeds gave
+    6.5% and 5.5% success, the leader on the goal in 46% and 66% (docs/RESULTS.md, "The 15-minute recipe")."""
     from hydra import compose, initialize_config_dir
 
     import formation_rl.apps.train  # noqa: F401  (registers the schema)
 
     with initialize_config_dir(config_dir=str(ROOT / "formation_rl" / "conf"), version_base=None):
-        cfg = compose(config_name="config", overrides=["progress=false"])
-    trainer = Trainer(to_train_config(cfg), tmp_path)
-    final = trainer.train()
-    evals = scalars(tmp_path)
-    untrained = {k.split("/")[1]: v[0][1] for k, v in evals.items() if k.startswith("eval/")}
-    print("untrained:", untrained, "\nfinal:", final)
-    assert final["episode_reward"] > untrained["episode_reward"]
-    assert final["success"] > untrained["success"]
+        cfg = compose(config_name="config", overrides=["recipe=hindsight", "progress=false"])
+    final = Trainer(to_train_config(cfg), tmp_path).train()
+    print("final:", final)
+    assert final["success"] >= 0.02 and final["at_goal"] >= 0.25, final
 
 
 
@@ -120,3 +117,25 @@ def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing(
     assert (rw.goal, rw.robot_collision, rw.leader_robot_collision, rw.scale) == (50, -50, 0, 0.1)
     assert team.algo.gamma == 0.995 and team.model.leader_critic == "own" and team.start_team
     assert team.total_frames == 250_000 and team.algo.update_every == 10  # its own budget wins over budget=paper
+
+
+def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
+    """recipe=hindsight (`make train`): the paper's hybrid reward and PER-MATD3 with relative positions, R5 = -50
+    paid by the followers, the formation term doubled, hindsight goals, bf16 where native; its own 2M frames."""
+    from hydra import compose, initialize_config_dir
+
+    from formation_rl.training.config import register, validate
+    from formation_rl.training.trainer import to_train_config
+
+    register()
+    with initialize_config_dir(str(ROOT / "formation_rl" / "conf"), version_base=None):
+        paper = to_train_config(compose("config", overrides=["budget=paper"]))
+        ours = to_train_config(compose("config", overrides=["recipe=hindsight"]))
+    validate(ours)
+    rw, base = ours.env.reward, paper.env.reward
+    assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error) == (-50, 0, 2)
+    assert dataclasses.replace(rw, robot_collision=base.robot_collision, leader_robot_collision=1.0,
+                               follower_error=1.0) == base  # every other reward field the paper's
+    assert ours.env.relative_positions and ours.algo.her == 1.0 and ours.precision == "auto"
+    assert dataclasses.replace(ours.algo, her=0.0) == paper.algo  # PER-MATD3 at the paper's settings and ratio
+    assert ours.model == paper.model and ours.total_frames == 2_000_000

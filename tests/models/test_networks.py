@@ -219,8 +219,24 @@ def test_bf16_is_refused_where_the_cpu_lacks_it(monkeypatch):
         validate(TrainConfig(precision="bf16"))
     with pytest.raises(ValueError, match=r"^precision = 'bf16_targets' is invalid: must be fp32 on this cpu"):
         validate(TrainConfig(precision="bf16_targets"))
-    with pytest.raises(ValueError, match=r"^precision = 'fp16' is invalid: must be fp32 or bf16 or bf16_targets"):
+    with pytest.raises(ValueError, match=r"^precision = 'fp16' is invalid: must be fp32 or bf16 or bf16_targets or"):
         validate(TrainConfig(precision="fp16"))
+    validate(TrainConfig(precision="auto"))  # auto falls back to fp32 there, no error
+
+
+@pytest.mark.parametrize("native", [False, True])
+def test_auto_precision_is_bf16_targets_where_the_device_has_bf16_else_fp32(monkeypatch, tmp_path, native):
+    """precision=auto resolves once, in the trainer, and the run's config (saved in its checkpoints) records which."""
+    from helpers import tiny
+
+    from formation_rl.training.trainer import Trainer
+
+    monkeypatch.setattr("formation_rl.models.bf16_supported", lambda device: native)
+    trainer = Trainer(tiny("per_matd3", frames=400, precision="auto"), tmp_path)
+    assert trainer.cfg.precision == ("bf16_targets" if native else "fp32")
+    for m in trainer.actor.modules():
+        if hasattr(m, "compute_dtype"):
+            assert m.compute_dtype == (torch.bfloat16 if native else None)
 
 
 @pytest.mark.parametrize("hand_written", [False, True])
