@@ -28,6 +28,8 @@ log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/
 def main(cfg: DictConfig) -> float:
     run_dir = Path(HydraConfig.get().runtime.output_dir)
     trainer = Trainer(to_train_config(cfg), run_dir)
+    if cfg.precision == "auto":
+        log.info(f"precision=auto: {trainer.cfg.precision} on this {cfg.device}")
     if cfg.resume:
         trainer.load_checkpoint(cfg.resume)
     metrics = trainer.train()

@@ -46,7 +46,7 @@ class TrainConfig:
     #                          optimiser, output layers, TD targets and priorities) | bf16_targets: the TD targets'
     #                          hidden layers in bf16 too (their output layers, arithmetic and the priorities fp32);
     #                          both need a CPU with AVX512-BF16/AMX or a GPU with bf16 | auto: bf16_targets where the
-    #                          device has native bf16, else fp32 (the run's config records which)
+    #                          device has native bf16, else fp32 (the run's checkpoints and log record which)
 
 
 def register() -> None:
