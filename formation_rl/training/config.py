@@ -111,7 +111,8 @@ def validate(cfg: TrainConfig) -> None:
     from formation_rl.models import bf16_supported
     from formation_rl.models.networks import PRECISIONS
 
-    check(cfg.precision in (*PRECISIONS, "auto"), "precision", cfg.precision, " or ".join((*PRECISIONS, "auto")))
+    allowed = (*PRECISIONS, "auto")
+    check(cfg.precision in allowed, "precision", cfg.precision, " or ".join(allowed))
     if cfg.precision not in ("fp32", "auto"):
 
         check(bf16_supported(cfg.device), "precision", cfg.precision,
