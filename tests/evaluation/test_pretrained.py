@@ -1,5 +1,5 @@
-"""The shipped policies (pretrained/per_matd3.pt, per_matd3_fast.pt): load without arguments and keep what
-docs/RESULTS.md claims."""
+"""The shipped policies (pretrained/per_matd3.pt, per_matd3_fast.pt, per_matd3_hindsight.pt): load without
+arguments and keep what docs/RESULTS.md claims."""
 
 from pathlib import Path
 
@@ -39,6 +39,24 @@ def test_fast_policy_loads_with_its_world_and_keeps_its_success_on_50_held_out_e
     assert abs(per["success"].mean().item() - FAST_CLAIMED_SUCCESS) <= FAST_TOLERANCE
     assert per["CBRO"].mean() < 2.37
 
+
+
+HINDSIGHT_CLAIMED_SUCCESS = 0.408  # RESULTS.md: recipe=hindsight, 9M frames, best validation, seed 0; 1,000 held-out
+HINDSIGHT_TOLERANCE = 0.14  # 50 episodes: the binomial standard deviation at 41% is 0.070
+
+
+def test_hindsight_policy_loads_with_its_world_and_keeps_its_success_on_50_held_out_episodes():
+    """pretrained/per_matd3_hindsight.pt, the from-scratch recipe's team: plain actors (no controller inside)
+    reading relative positions, with the reward it learned from in its config."""
+    from formation_rl.models.networks import ResidualActor
+
+    policy = formation_rl.load_policy(ROOT / "pretrained" / "per_matd3_hindsight.pt")
+    assert policy.algo == "per_matd3" and policy.env_config.relative_positions
+    assert not isinstance(policy.module.module, ResidualActor)
+    assert policy.env_config.reward.follower_error == 2.0 and policy.env_config.reward.robot_collision == -50.0
+    per = evaluate_policy(policy.module, policy.env_config, 50, 50, progress=False)
+    assert abs(per["success"].mean().item() - HINDSIGHT_CLAIMED_SUCCESS) <= HINDSIGHT_TOLERANCE
+    assert per["CBRO"].mean() < 2.37
 
 def test_loaded_policy_is_a_torchrl_policy_and_rolls_outside_no_grad():
     """The issue's `env.rollout(150, policy=policy.module)` outside no_grad crashed in the world; the Policy
