@@ -40,7 +40,6 @@ def test_fast_policy_loads_with_its_world_and_keeps_its_success_on_50_held_out_e
     assert per["CBRO"].mean() < 2.37
 
 
-
 HINDSIGHT_CLAIMED_SUCCESS = 0.408  # RESULTS.md: recipe=hindsight, 9M frames, best validation, seed 0; 1,000 held-out
 HINDSIGHT_TOLERANCE = 0.14  # 50 episodes: the binomial standard deviation at 41% is 0.070
 
@@ -57,6 +56,7 @@ def test_hindsight_policy_loads_with_its_world_and_keeps_its_success_on_50_held_
     per = evaluate_policy(policy.module, policy.env_config, 50, 50, progress=False)
     assert abs(per["success"].mean().item() - HINDSIGHT_CLAIMED_SUCCESS) <= HINDSIGHT_TOLERANCE
     assert per["CBRO"].mean() < 2.37
+
 
 def test_loaded_policy_is_a_torchrl_policy_and_rolls_outside_no_grad():
     """The issue's `env.rollout(150, policy=policy.module)` outside no_grad crashed in the world; the Policy
