@@ -128,7 +128,6 @@ def test_obstacle_collision_replaces_guided_and_sums_with_other_events():
     assert r[1] == pytest.approx(1.0 - 20.0)
 
 
-
 def test_follower_obstacle_collision_scales_the_followers_r4_only():
     """reward.follower_obstacle_collision: the followers' R4 as a multiple of R4; the leader keeps R4."""
     def env(mult):
@@ -150,6 +149,7 @@ def test_follower_obstacle_collision_scales_the_followers_r4_only():
         bad = EnvConfig()
         bad.reward = RewardConfig(follower_obstacle_collision=-1)
         bad.validate()
+
 
 def test_robot_collisions():
     p = v_slots()
