@@ -58,8 +58,6 @@ class RewardConfig:
     leader_robot_collision: float = 1.0  # the leader's share of R5 (ours; 1: the paper). 0: followers alone answer
     #                                      for robot contacts, and a contact leaves the leader's guided term in place;
     #                                      it scales the robot part of the leader's proximity ramp too
-    follower_obstacle_collision: float = 1.0  # the followers' R4 as a multiple of R4 (ours; 1: the paper): above 1,
-    #                                           an obstacle contact costs a follower more than the leader
 
 
 @dataclass
@@ -189,8 +187,6 @@ class EnvConfig:
         _check(r.leader_robot_collision, "reward.leader_robot_collision", lambda v: _finite(v) and 0 <= v <= 1,
                "a number in [0, 1]")
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")
-        _check(r.follower_obstacle_collision, "reward.follower_obstacle_collision", _non_negative,
-               "a finite number >= 0")
 
 
 def _sub(cls: type, value: Any, where: str) -> Any:

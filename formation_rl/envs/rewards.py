@@ -123,12 +123,7 @@ def step_quantities(
         r5 = torch.full((n, 1), rw.robot_collision, dtype=pos.dtype, device=pos.device)
         r5[0] *= rw.leader_robot_collision
         robot_event = robot_hit & (r5 != 0)
-    r4 = rw.obstacle_collision  # R4; the followers' times follower_obstacle_collision
-    if rw.follower_obstacle_collision != 1.0:
-        r4 = torch.full((n, 1), rw.obstacle_collision * rw.follower_obstacle_collision, dtype=pos.dtype,
-                        device=pos.device)
-        r4[0] = rw.obstacle_collision
-    sparse = positive * positive_value + obstacle_hit * r4 + robot_hit * r5
+    sparse = positive * positive_value + obstacle_hit * rw.obstacle_collision + robot_hit * r5
     guided = follower_err * -rw.follower_error
     guided[0] = goal_dist * -rw.leader_distance
     if rw.leader_team:

@@ -128,29 +128,6 @@ def test_obstacle_collision_replaces_guided_and_sums_with_other_events():
     assert r[1] == pytest.approx(1.0 - 20.0)
 
 
-def test_follower_obstacle_collision_scales_the_followers_r4_only():
-    """reward.follower_obstacle_collision: the followers' R4 as a multiple of R4; the leader keeps R4."""
-    def env(mult):
-        cfg = EnvConfig(num_obstacles=1)
-        cfg.reward = RewardConfig(follower_obstacle_collision=mult)
-        return FormationEnv(1, config=cfg, seed=0)
-
-    leader_hit, _ = rewards_at(env(2.5), v_slots(), center=[[0.65, 3.0]], radius=(0.5,))
-    assert leader_hit[0] == pytest.approx(-20.0)  # the leader's R4 unchanged
-    assert leader_hit[1:].tolist() == pytest.approx([1.0] * 4)
-    follower_hit, _ = rewards_at(env(2.5), v_slots(), center=[[-S - 0.65, 3.0 + S]], radius=(0.5,))
-    paper, _ = rewards_at(env(1.0), v_slots(), center=[[-S - 0.65, 3.0 + S]], radius=(0.5,))
-    assert paper[1] == pytest.approx(1.0 - 20.0) and follower_hit[1] == pytest.approx(1.0 - 50.0)  # R2 + 2.5 R4
-    hit = paper[1:] < 0  # the followers in contact (L1, and L2 beside it)
-    np.testing.assert_allclose(follower_hit[1:][hit], 1.0 - 50.0, atol=1e-5)
-    np.testing.assert_allclose(follower_hit[1:][~hit], paper[1:][~hit], atol=1e-6)
-    assert (~hit).any()
-    with pytest.raises(ValueError, match=r"env.reward.follower_obstacle_collision = -1"):
-        bad = EnvConfig()
-        bad.reward = RewardConfig(follower_obstacle_collision=-1)
-        bad.validate()
-
-
 def test_robot_collisions():
     p = v_slots()
     p[2] = [p[1][0] + 0.25, p[1][1]]  # R1 0.25 from L1: |d| - 2r = 0.05 < rho_r
