@@ -41,7 +41,7 @@ def bf16_speedup(device: str) -> float:
     """How many times faster ``device`` runs a bf16 GEMM than an fp32 one at the critics' hidden-layer shape
     (``[10, 1024, 128] @ [10, 128, 128]``: two twins x five robots, batch 1024), median of 5 timed blocks on
     the current threads, under half a second once per process; 0.0 where bf16 is not native. Measured, not assumed:
-    a CPU that reports AVX512-BF16 without AMX (an Intel Xeon here, 2026-12-04) ran this GEMM at 0.75x
+    a CPU that reports AVX512-BF16 without AMX (an Intel Xeon here, 2026-12-04) ran this GEMM at 0.47-0.68x
     fp32's speed and the whole step at 1.26x fp32's time (benchmarks/README.md)."""
     dev = torch.device(device)
     if not bf16_supported(dev):
