@@ -121,7 +121,7 @@ def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing(
 
 
 def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
-    """recipe=hindsight (`make train`): the paper's hybrid reward and PER-MATD3 with relative positions, R5 = -50
+    """recipe=hindsight (`make train`): the paper's hybrid reward and PER-MATD3 with relative positions, R5 = -25
     paid by the followers, the formation term doubled, hindsight goals, 3-step targets, bf16 where faster; 2M frames."""
     from hydra import compose, initialize_config_dir
 
@@ -134,7 +134,7 @@ def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
         ours = to_train_config(compose("config", overrides=["recipe=hindsight"]))
     validate(ours)
     rw, base = ours.env.reward, paper.env.reward
-    assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error) == (-50, 0, 2)
+    assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error) == (-25, 0, 2)
     assert dataclasses.replace(rw, robot_collision=base.robot_collision, leader_robot_collision=1.0,
                                follower_error=1.0) == base  # every other reward field the paper's
     assert ours.env.relative_positions and ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
