@@ -18,8 +18,6 @@ class AlgoConfig:
     alpha: float = 0.6  # priority exponent (paper)
     beta: float = 0.5  # importance-sampling exponent (paper)
     priority_eps: float = 1e-6  # p = (max |delta| + eps)^alpha (choice)
-    priority_reduction: str = "max"  # max | mean: a transition's priority from its robots' |delta| (eq. 17: max;
-    #                                   mean, ours: one robot's surprise weighs a fifth)
     lr_actor: float = 1e-3  # (paper)
     lr_critic: float = 1e-3  # (paper)
     gamma: float = 0.95  # (paper)

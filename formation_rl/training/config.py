@@ -82,7 +82,6 @@ def validate(cfg: TrainConfig) -> None:
     for name in ("gamma", "tau", "alpha", "beta"):
         check(0 <= getattr(a, name) <= 1, f"algo.{name}", getattr(a, name), "in [0, 1]")
     check(a.priority_eps > 0, "algo.priority_eps", a.priority_eps, "> 0")
-    check(a.priority_reduction in ("max", "mean"), "algo.priority_reduction", a.priority_reduction, "max or mean")
     check(a.policy_noise >= 0 and a.noise_clip >= 0, "algo.policy_noise", a.policy_noise, ">= 0 (noise_clip too)")
     check(a.policy_delay >= 1, "algo.policy_delay", a.policy_delay, "an integer >= 1")
     check(a.batch_size >= 1, "algo.batch_size", a.batch_size, "an integer >= 1")

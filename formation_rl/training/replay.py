@@ -37,10 +37,10 @@ def make_replay_buffer(cfg: AlgoConfig, device: torch.device | str = "cpu"):
     its transitions stored on ``device``."""
     storage = LazyTensorStorage(cfg.buffer_size, device=device)
     if cfg.prioritized:
-        # priority p = (max over robots of |delta| + eps)^alpha (eq. 17, or the mean); weights (p/p_min)^-beta (eq. 20)
+        # priority p = (max over robots of |delta| + eps)^alpha (eq. 17); weights (p / p_min)^-beta (eq. 20)
         return TensorDictPrioritizedReplayBuffer(
             alpha=cfg.alpha, beta=cfg.beta, eps=cfg.priority_eps, storage=storage, batch_size=cfg.batch_size,
-            priority_key=PRIORITY_KEY, reduction=cfg.priority_reduction, sampler_device=priority_tree_device(device),
+            priority_key=PRIORITY_KEY, reduction="max", sampler_device=priority_tree_device(device),
         )
     return TensorDictReplayBuffer(storage=storage, batch_size=cfg.batch_size)
 

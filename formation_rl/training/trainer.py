@@ -202,7 +202,7 @@ class Trainer:
             out = self.algo.update(batch)  # writes |delta| [B, N] at PRIORITY_KEY
         if self.cfg.algo.prioritized:
             with self.timings("priority"):
-                self.buffer.update_tensordict_priority(batch)  # reduced over robots (eq. 17: max)
+                self.buffer.update_tensordict_priority(batch)  # reduction max over robots (eq. 17)
             out["priority_mean"] = batch.get(PRIORITY_KEY).amax(-1).mean()
             out["priority_max"] = batch.get(PRIORITY_KEY).max()
             out["weight_mean"] = batch.get(WEIGHT_KEY).mean()

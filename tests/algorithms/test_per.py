@@ -59,17 +59,3 @@ def test_alpha_zero_is_uniform():
     assert torch.allclose(buffer.sample()["priority_weight"].float(), torch.ones(16))
     counts = torch.bincount(torch.cat([buffer.sample()["index"] for _ in range(400)]), minlength=64).float()
     assert counts.min() > 0.5 * counts.mean() and counts.max() < 1.5 * counts.mean()  # 6400 draws, ~100 each
-
-
-def test_priority_reduction_mean_takes_the_robots_mean():
-    """algo.priority_reduction=mean (ours): p = (mean over robots of |delta| + eps)^alpha instead of eq. 17's max."""
-    cfg = AlgoConfig(name="per_matd3", batch_size=16, buffer_size=64, priority_reduction="mean")
-    buffer = make_replay_buffer(cfg)
-    buffer.extend(make_batch(64))
-    batch = buffer.sample()
-    delta = torch.rand(16, N) * torch.arange(1, N + 1)  # robots differ, so max and mean differ
-    batch.set("td_error", delta)
-    buffer.update_tensordict_priority(batch)
-    last = {int(i): p for i, p in zip(batch["index"], (delta.mean(-1) + cfg.priority_eps) ** cfg.alpha, strict=True)}
-    expected = torch.stack([last[int(i)] for i in batch["index"]])
-    torch.testing.assert_close(tree_priorities(buffer, batch["index"]).float(), expected.float(), atol=1e-5, rtol=1e-4)
