@@ -47,6 +47,8 @@ class RewardConfig:
     follower_error: float = 1.0  # follower guided += -follower_error * (its active-formation error)
     follower_progress: float = 0.0  # follower guided += follower_progress * (e_prev - e) / (v_max dt), e_prev under
     #                                 the formation active now
+    follower_velocity: float = 0.0  # follower guided += -follower_velocity * |v_i - v_lea| / v_max: the leader's
+    #                                 velocity matched (a team that translates rigidly keeps every distance; ours)
     leader_team: float = 0.0  # leader guided += -leader_team * mean follower formation error (waits for its team)
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
@@ -91,13 +93,20 @@ class EnvConfig:
     sensing_range: float = 0.2  # rho_d, surface gap under which an obstacle is sensed (paper)
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible (choice)
     relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (a departure, docs/departures.md)
+    observe_velocities: bool = False  # followers also see the others' velocities after their positions (a departure)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @property
     def obs_dim(self) -> int:
-        """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions)."""
-        return 4 + 2 * (self.num_robots - 1) + 3 * self.num_obstacles + 1
+        """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions);
+        2(N-1) more with ``observe_velocities``."""
+        return 4 + self.role_width + 3 * self.num_obstacles + 1
+
+    @property
+    def role_width(self) -> int:
+        """Width of the role block: 2(N-1), twice that with ``observe_velocities``."""
+        return 2 * (self.num_robots - 1) * (2 if self.observe_velocities else 1)
 
     @property
     def area_formation(self) -> FormationConfig:
@@ -143,6 +152,7 @@ class EnvConfig:
         _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.relative_positions, "relative_positions", lambda v: isinstance(v, bool), "true or false")
+        _check(self.observe_velocities, "observe_velocities", lambda v: isinstance(v, bool), "true or false")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")
         for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):
@@ -178,8 +188,8 @@ class EnvConfig:
         if r.area_formation is not None:
             _check_formation(r.area_formation, "reward.area_formation")
         for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
-                     "leader_distance", "leader_progress", "follower_error", "follower_progress", "leader_team",
-                     "proximity"):
+                     "leader_distance", "leader_progress", "follower_error", "follower_progress", "follower_velocity",
+                     "leader_team", "proximity"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")

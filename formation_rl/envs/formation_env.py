@@ -57,7 +57,7 @@ class FormationEnv(EnvBase):
         n, m, d = cfg.num_robots, cfg.num_obstacles, cfg.obs_dim
         self._make_specs(b, n, m, d)
         self._geom = Geometry.build(cfg, self.device)
-        self._obs_index = world.observation_index(n, m, self.device)
+        self._obs_index = world.observation_index(n, m, self.device, cfg.observe_velocities)
         self._advance = torch.compile(self._advance_eager) if compile_physics else self._advance_eager
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(int(torch.randint(2**62, ())) if seed is None else seed)
@@ -123,10 +123,10 @@ class FormationEnv(EnvBase):
 
     def _measure(self, pos, vel, goal, centers, radii, prev_pos=None) -> dict[str, torch.Tensor]:
         """Observation, reward and diagnostics of a world given batch-last, returned batch-first."""
-        q = step_quantities(pos, goal, centers, radii, self._geom, self.config, prev_pos)
+        q = step_quantities(pos, goal, centers, radii, self._geom, self.config, prev_pos, vel)
         obs = world.observe(pos, vel, q, self._obs_index)  # [B, N, D]
         if self.config.relative_positions:
-            obs = world.make_relative(obs)
+            obs = world.make_relative(obs, self.config.observe_velocities)
         return {
             "observation": obs,
             "reward": q["reward"].T.unsqueeze(-1).contiguous(),  # [B, N, 1]

@@ -160,17 +160,21 @@ def _source_rows(n: int, m: int) -> tuple[int, ...]:
     return P, V, G, Z, OX, OY, S, F, F + 1
 
 
-def observation_index(n: int, m: int, device=None) -> torch.Tensor:
-    """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``."""
+def observation_index(n: int, m: int, device=None, velocities: bool = False) -> torch.Tensor:
+    """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``;
+    ``velocities``: the role block goes on with the other robots' velocities (zeros for the leader)."""
     P, V, G, Z, OX, OY, S, F, _ = _source_rows(n, m)
     rows = []
     for i in range(n):
         row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
         if i == 0:
-            row += [G, G + 1] + [Z] * (2 * (n - 2))  # leader: p - p_g, then zeros
+            row += [G, G + 1] + [Z] * (2 * (n - 2) + (2 * (n - 1) if velocities else 0))  # p - p_g, then zeros
         else:
-            for k in (j if j < i else j + 1 for j in range(n - 1)):  # other robots in index order
+            others = [j if j < i else j + 1 for j in range(n - 1)]  # other robots in index order
+            for k in others:
                 row += [P + k, P + n + k]
+            for k in others if velocities else ():
+                row += [V + k, V + n + k]
         for j in range(m):
             row += [OX + i * m + j, OY + i * m + j, S + i * m + j]  # (p - c_j, 1) if sensed
         rows += row + [F]
@@ -199,12 +203,16 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     return source.index_select(0, index).T.reshape(b, n, -1)
 
 
-def make_relative(obs: torch.Tensor) -> torch.Tensor:
-    """Followers' role blocks of ``obs`` [B, N, D] as positions relative to their own: p_j - p_i, in place.
+def make_relative(obs: torch.Tensor, velocities: bool = False) -> torch.Tensor:
+    """Followers' role blocks of ``obs`` [B, N, D] as positions relative to their own: p_j - p_i, in place
+    (and, with ``velocities``, the others' velocities relative to their own: v_j - v_i).
 
     ``EnvConfig.relative_positions`` (a choice; docs/departures.md): the same layout, translation-invariant.
     ``obs`` is the fresh tensor :func:`observe` returns.
     """
     n = obs.shape[-2]
     obs[..., 1:, 4:4 + 2 * (n - 1)].unflatten(-1, (n - 1, 2)).sub_(obs[..., 1:, None, 0:2])
+    if velocities:
+        start = 4 + 2 * (n - 1)
+        obs[..., 1:, start:start + 2 * (n - 1)].unflatten(-1, (n - 1, 2)).sub_(obs[..., 1:, None, 2:4])
     return obs

@@ -54,13 +54,14 @@ class Policy(TensorDictModuleBase):
         if env_cfg.num_robots != mine.num_robots:
             raise ValueError(f"env.num_robots = {env_cfg.num_robots} is invalid: the policy was trained with "
                              f"{mine.num_robots} robots and has one actor per robot")
+        for name in ("relative_positions", "observe_velocities"):
+            if getattr(env_cfg, name) != getattr(mine, name):
+                raise ValueError(f"env.{name} = {getattr(env_cfg, name)} is invalid: the policy reads the observation "
+                                 f"layout of {name}={getattr(mine, name)}")
         if env_cfg.obs_dim != mine.obs_dim:
             raise ValueError(f"env.num_obstacles = {env_cfg.num_obstacles} is invalid: the policy reads "
                              f"{mine.num_obstacles} obstacle slots (observation width {mine.obs_dim}, "
                              f"requested {env_cfg.obs_dim})")
-        if env_cfg.relative_positions != mine.relative_positions:
-            raise ValueError(f"env.relative_positions = {env_cfg.relative_positions} is invalid: the policy reads "
-                             f"the observation layout of relative_positions={mine.relative_positions}")
 
     @torch.no_grad()
     def forward(self, observation):

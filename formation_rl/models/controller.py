@@ -73,10 +73,10 @@ class APFController(nn.Module):
 
     # ------------------------------------------------------------------ observation layout (reference.md)
     def _split(self, obs: torch.Tensor):
-        n, m = self.cfg.num_robots, self.cfg.num_obstacles
+        n, m, w = self.cfg.num_robots, self.cfg.num_obstacles, self.cfg.role_width
         p, v = obs[..., 0:2], obs[..., 2:4]
-        role = obs[..., 4:4 + 2 * (n - 1)]
-        obst = obs[..., 4 + 2 * (n - 1):4 + 2 * (n - 1) + 3 * m].unflatten(-1, (m, 3))  # [..., N, M, 3]
+        role = obs[..., 4:4 + 2 * (n - 1)]  # (the others' velocities, if observed, follow: unused here)
+        obst = obs[..., 4 + w:4 + w + 3 * m].unflatten(-1, (m, 3))  # [..., N, M, 3]
         flag = obs[..., -1:] > 0.5
         return p, v, role, obst, flag
 

@@ -65,6 +65,27 @@ def test_relative_positions_shift_only_the_followers_view_of_the_others():
     check_env_specs(FormationEnv(4, config=EnvConfig(relative_positions=True), seed=0))
 
 
+@pytest.mark.parametrize("rel", [False, True])
+def test_observe_velocities_adds_the_others_velocities_after_their_positions(rel):
+    """env.observe_velocities: a follower's role block goes on with the others' velocities (relative to its own
+    with relative_positions); the leader gets zeros there; everything else moves back by that block, unchanged."""
+    state = dict(positions=[[[1.0, 1.0], [0.0, 1.2], [-2.0, 3.0]]], velocities=[[[0.1, 0.2], [0.0, -0.3], [0.5, 0.0]]],
+                 goal=[[3.2, 3.1]], obstacle_centers=[[[1.0, 1.75], [-3.0, -1.0]]], obstacle_radii=[[0.5, 0.4]])
+    obs = {}
+    for vel in (False, True):
+        cfg = EnvConfig(num_robots=3, num_obstacles=2, relative_positions=rel, observe_velocities=vel)
+        assert cfg.obs_dim == 4 + 4 + 6 + 1 + (4 if vel else 0)
+        obs[vel] = FormationEnv(1, config=cfg, seed=0).set_world_state(**state)["agents", "observation"][0]
+    plain, more = obs[False], obs[True]
+    v = torch.tensor(state["velocities"][0])
+    for i, others in ((1, (0, 2)), (2, (0, 1))):
+        expected = torch.cat([v[j] - (v[i] if rel else 0) for j in others])
+        torch.testing.assert_close(more[i, 8:12], expected)
+    assert (more[0, 8:12] == 0).all()
+    assert torch.equal(more[:, :8], plain[:, :8]) and torch.equal(more[:, 12:], plain[:, 8:])
+    check_env_specs(FormationEnv(4, config=EnvConfig(observe_velocities=True, relative_positions=rel), seed=0))
+
+
 def test_partial_reset_only_touches_flagged_copies():
     env = FormationEnv(3, seed=0)
     td = env.reset()

@@ -277,3 +277,24 @@ def test_own_progress_credits_a_follower_with_its_own_move_only():
         own_prev = pos.copy()
         own_prev[i] = start[i]
         assert r[i] == pytest.approx((error(own_prev, i) - error(pos, i)) / unit, abs=1e-4)
+
+
+def test_follower_velocity_charges_a_follower_its_velocity_gap_to_the_leader():
+    """reward.follower_velocity: a follower's guided term loses w |v_i - v_lea| / v_max; one moving with the leader
+    loses nothing, and the leader's own reward is untouched."""
+    cfg = EnvConfig(num_obstacles=1)
+    cfg.reward = RewardConfig(leader_distance=0.0, follower_error=0.0, follower_velocity=2.0)
+    env = FormationEnv(1, config=cfg, seed=0)
+    vel = np.zeros((5, 2))
+    vel[:] = [0.4, 0.0]  # everyone with the leader ...
+    vel[2] = [0.0, 0.3]  # ... but R1 and L2
+    vel[3] = [0.4, -0.3]
+    loose = (np.array(v_slots((0.0, 0.0))) * 1.5 + [-1.0, 2.0]).tolist()  # off the V: no R2 replaces the guided term
+    env.set_world_state(positions=[loose], velocities=[vel.tolist()], goal=[(3.2, 3.2)],
+                        obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
+    nxt = env.step(TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1]))["next"]
+    r = nxt["agents", "reward"][0, :, 0].double().numpy()
+    v = nxt["state", "velocities"][0].double().numpy()
+    assert r[0] == pytest.approx(0.0) and r[1] == pytest.approx(0.0, abs=1e-6) and r[4] == pytest.approx(0.0, abs=1e-6)
+    for i in (2, 3):
+        assert r[i] < -0.5 and r[i] == pytest.approx(-2.0 * np.linalg.norm(v[i] - v[0]) / cfg.max_speed, abs=1e-5)

@@ -113,3 +113,25 @@ def test_load_policy_apf_reads_the_layout_of_the_world_it_is_given():
     with pytest.raises(ValueError, match=r"^env.relative_positions = False is invalid: the policy reads the "
                                          r"observation layout of relative_positions=True$"):
         formation_rl.load_policy(ROOT / "pretrained" / "per_matd3_fast.pt", env_config=EnvConfig())
+
+
+def test_controller_reads_the_layout_with_observed_velocities():
+    """env.observe_velocities moves the obstacle block back: the controller's actions stay the same."""
+    import torch
+
+    from formation_rl.envs import EnvConfig, FormationEnv
+    from formation_rl.models.controller import APFController
+
+    from tensordict.nn import TensorDictModule
+
+    paths = []
+    for vel in (False, True):
+        cfg = EnvConfig(relative_positions=True, observe_velocities=vel)
+        env = FormationEnv(16, config=cfg, seed=3)
+        policy = TensorDictModule(APFController(cfg), [("agents", "observation")], [("agents", "action")])
+        with torch.no_grad():
+            ro = env.rollout(100, policy=policy)
+        paths.append(ro["next", "state", "positions"])
+        sensed = ro["agents", "observation"][..., 4 + cfg.role_width + 2::3]
+    assert sensed.any()  # obstacles were in view: the shifted block was read
+    torch.testing.assert_close(paths[0], paths[1])
