@@ -118,11 +118,10 @@ def test_load_policy_apf_reads_the_layout_of_the_world_it_is_given():
 def test_controller_reads_the_layout_with_observed_velocities():
     """env.observe_velocities moves the obstacle block back: the controller's actions stay the same."""
     import torch
+    from tensordict.nn import TensorDictModule
 
     from formation_rl.envs import EnvConfig, FormationEnv
     from formation_rl.models.controller import APFController
-
-    from tensordict.nn import TensorDictModule
 
     paths = []
     for vel in (False, True):
