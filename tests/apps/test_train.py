@@ -121,8 +121,9 @@ def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing(
 
 
 def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
-    """recipe=hindsight (`make train`): the paper's hybrid reward and PER-MATD3 with relative positions, R5 = -25
-    paid by the followers, the formation term doubled, hindsight goals, 3-step targets, bf16 where faster; 2M frames."""
+    """recipe=hindsight (`make train`): the paper's hybrid reward and PER-MATD3 with relative positions and the
+    others' velocities, R5 = -25 paid by the followers, the formation term doubled, the followers' velocity term,
+    hindsight goals, 3-step targets, bf16 where faster; 2M frames."""
     from hydra import compose, initialize_config_dir
 
     from formation_rl.training.config import register, validate
@@ -134,9 +135,9 @@ def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
         ours = to_train_config(compose("config", overrides=["recipe=hindsight"]))
     validate(ours)
     rw, base = ours.env.reward, paper.env.reward
-    assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error) == (-25, 0, 2)
+    assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error, rw.follower_velocity) == (-25, 0, 2, 1)
     assert dataclasses.replace(rw, robot_collision=base.robot_collision, leader_robot_collision=1.0,
-                               follower_error=1.0) == base  # every other reward field the paper's
-    assert ours.env.relative_positions and ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
+                               follower_error=1.0, follower_velocity=0.0) == base  # every other reward field the paper's
+    assert ours.env.relative_positions and ours.env.observe_velocities and ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
     assert dataclasses.replace(ours.algo, her=0.0, n_steps=1) == paper.algo  # PER-MATD3: the paper's settings, ratio
     assert ours.model == paper.model and ours.total_frames == 2_000_000
