@@ -138,7 +138,8 @@ def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
     rw, base = ours.env.reward, paper.env.reward
     assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error, rw.follower_velocity) == (-25, 0, 2, 1)
     assert dataclasses.replace(rw, robot_collision=base.robot_collision, leader_robot_collision=1.0,
-                               follower_error=1.0, follower_velocity=0.0) == base  # every other reward field the paper's
-    assert ours.env.relative_positions and ours.env.observe_velocities and ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
+                               follower_error=1.0, follower_velocity=0.0) == base  # every other reward field: paper's
+    assert ours.env.relative_positions and ours.env.observe_velocities
+    assert ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
     assert dataclasses.replace(ours.algo, her=0.0, n_steps=1) == paper.algo  # PER-MATD3: the paper's settings, ratio
     assert ours.model == paper.model and ours.total_frames == 2_000_000
