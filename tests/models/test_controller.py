@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 import torch
+from tensordict.nn import TensorDictModule
 
 import formation_rl
 from formation_rl.envs import EnvConfig, FormationEnv
@@ -117,12 +118,6 @@ def test_load_policy_apf_reads_the_layout_of_the_world_it_is_given():
 
 def test_controller_reads_the_layout_with_observed_velocities():
     """env.observe_velocities moves the obstacle block back: the controller's actions stay the same."""
-    import torch
-    from tensordict.nn import TensorDictModule
-
-    from formation_rl.envs import EnvConfig, FormationEnv
-    from formation_rl.models.controller import APFController
-
     paths = []
     for vel in (False, True):
         cfg = EnvConfig(relative_positions=True, observe_velocities=vel)

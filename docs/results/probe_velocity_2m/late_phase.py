@@ -5,6 +5,7 @@ RFSE split by the leader's route (through the area: the leader inside it in at l
 
     python docs/results/probe_velocity_2m/late_phase.py CKPT [CKPT ...]
 """
+import functools
 import sys
 
 import torch
@@ -17,18 +18,19 @@ from formation_rl.training.config import TrainConfig
 PHASES = ((0, 50), (50, 90), (90, 120), (120, 150))
 
 
-def per_episode(rollout, goal_radius):
+def per_episode(rollout, goal_radius, area):
     pos = rollout["next", "state", "positions"]  # [B, T, N, 2]
     goal = rollout["next", "state", "goal"]  # [B, T, 2]
     x, y = pos[..., 0], pos[..., 1]
-    in_area = ((x.abs() < 3) & (y.abs() < 2)).float()  # the obstacle area, x in [-3, 3], y in [-2, 2]
+    (x0, x1), (y0, y1) = area
+    in_area = ((x > x0) & (x < x1) & (y > y0) & (y < y1)).float()  # strictly inside, as the env's leader flag
     speed = rollout["next", "state", "velocities"].norm(dim=-1)  # [B, T, N]
     error = rollout["next", "formation_error"][..., 0]  # [B, T]
     near = (pos[:, :, 0] - goal).norm(dim=-1) < 0.3  # the leader within 0.3 m of the goal
     out = {"leader within 0.3 m of the goal, first step": torch.where(near.any(1), near.float().argmax(1), 150).float(),
-           "leader below the area (y <= -2)": ((y[..., 0] <= -2) & (x[..., 0].abs() < 3)).float().mean(1),
-           "leader right of the area (x >= 3)": (x[..., 0] >= 3).float().mean(1),
-           "leader in the area": in_area[..., 0].mean(1)}
+           "leader below the area (y <= -2)": ((y[..., 0] <= y0) & (x[..., 0] > x0) & (x[..., 0] < x1)).float().mean(1),
+           "leader right of the area (x >= 3)": (x[..., 0] >= x1).float().mean(1),
+           "leader in the area": rollout["next", "in_obstacle_area"][..., 0].float().mean(1)}
     for a, b in PHASES:
         out[f"formation error (m), steps {a}-{b - 1}"] = error[:, a:b].mean(1)
         out[f"followers' speed (m/s), steps {a}-{b - 1}"] = speed[:, a:b, 1:].mean((1, 2))
@@ -42,8 +44,9 @@ torch.set_num_threads(1)
 rows = {}
 for ckpt in sys.argv[1:]:
     policy = load_policy(ckpt)
+    area = (policy.env_config.obstacle_area_x, policy.env_config.obstacle_area_y)
     rows[ckpt] = evaluate_policy(policy, policy.env_config, 200, seed=TrainConfig.eval_seed, progress=False,
-                                 metrics=per_episode)
+                                 metrics=functools.partial(per_episode, area=area))
 names = [k for k in next(iter(rows.values())) if k not in ("success", "RFSE")]
 print("| quantity (200 validation episodes; means, the first row a median) | " + " | ".join(rows) + " |")
 print("|---|" + "---|" * len(rows))
