@@ -123,7 +123,7 @@ class FormationEnv(EnvBase):
 
     def _measure(self, pos, vel, goal, centers, radii, prev_pos=None) -> dict[str, torch.Tensor]:
         """Observation, reward and diagnostics of a world given batch-last, returned batch-first."""
-        q = step_quantities(pos, goal, centers, radii, self._geom, self.config, prev_pos, vel)
+        q = step_quantities(pos, vel, goal, centers, radii, self._geom, self.config, prev_pos)
         obs = world.observe(pos, vel, q, self._obs_index)  # [B, N, D]
         if self.config.relative_positions:
             obs = world.make_relative(obs, self.config.observe_velocities)

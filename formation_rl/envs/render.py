@@ -109,8 +109,10 @@ def collisions(positions: torch.Tensor, state: TensorDictBase, cfg: EnvConfig) -
     """Per-robot collision flags ``[T, N]`` of positions ``[T, N, 2]`` in one copy's world ``state``,
     by the environment's own rule (:func:`formation_rl.envs.rewards.step_quantities`)."""
     t = positions.shape[0]
+    pos = positions.permute(2, 1, 0).float()  # batch-last [2, N, T]: the T states as a batch
     q = step_quantities(
-        positions.permute(2, 1, 0).float(),  # batch-last [2, N, T]: the T states as a batch
+        pos,
+        torch.zeros_like(pos),  # velocities: they enter the reward only, not the collision flags read here
         state["goal"].float()[:, None].expand(2, t),
         state["obstacle_centers"].float().T[..., None].expand(-1, -1, t),
         state["obstacle_radii"].float()[:, None].expand(-1, t),

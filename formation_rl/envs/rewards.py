@@ -58,13 +58,13 @@ def _norm(v: torch.Tensor) -> torch.Tensor:
 
 def step_quantities(
     pos: torch.Tensor,  # [2, N, B]
+    vel: torch.Tensor,  # [2, N, B]: the followers' velocity term (reward.follower_velocity)
     goal: torch.Tensor,  # [2, B]
     centers: torch.Tensor,  # [2, M, B]
     radii: torch.Tensor,  # [M, B]
     geom: Geometry,
     cfg: EnvConfig,
     prev_pos: torch.Tensor | None = None,  # [2, N, B] before the step: progress terms (reward.*_progress)
-    vel: torch.Tensor | None = None,  # [2, N, B]: the followers' velocity term (reward.follower_velocity)
 ) -> dict[str, torch.Tensor]:
     """Everything the reward, the observation and the metrics need from one world state."""
     r, rw = cfg.robot_radius, cfg.reward
@@ -127,7 +127,7 @@ def step_quantities(
     sparse = positive * positive_value + obstacle_hit * rw.obstacle_collision + robot_hit * r5
     guided = follower_err * -rw.follower_error
     guided[0] = goal_dist * -rw.leader_distance
-    if rw.follower_velocity and vel is not None:  # |v_i - v_lea| / v_max: a rigid translation keeps every distance
+    if rw.follower_velocity:  # |v_i - v_lea| / v_max: a rigid translation keeps every distance
         guided[1:] -= _norm(vel[:, 1:] - vel[:, :1]) * (rw.follower_velocity / cfg.max_speed)
     if rw.leader_team:
         guided[0] -= rw.leader_team * follower_err[1:].mean(0)
