@@ -136,7 +136,7 @@ def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
         ours = to_train_config(compose("config", overrides=["recipe=hindsight"]))
     validate(ours)
     rw, base = ours.env.reward, paper.env.reward
-    assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error, rw.follower_velocity) == (-25, 0, 2, 1)
+    assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error, rw.follower_velocity) == (-25, 0, 2, 4)
     assert dataclasses.replace(rw, robot_collision=base.robot_collision, leader_robot_collision=1.0,
                                follower_error=1.0, follower_velocity=0.0) == base  # every other reward field: paper's
     assert ours.env.relative_positions and ours.env.observe_velocities
