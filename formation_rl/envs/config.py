@@ -94,6 +94,8 @@ class EnvConfig:
     placement_tries: int = 200  # rounds of rejection sampling before a layout is declared impossible (choice)
     relative_positions: bool = False  # followers see the others at p_j - p_i, not p_j (a departure, docs/departures.md)
     observe_velocities: bool = False  # followers also see the others' velocities after their positions (a departure)
+    observe_distance_errors: bool = False  # ... and then d_ij - d*_ij to each other robot under the active formation,
+    #                                        0 for a pair it does not keep (a departure)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
@@ -105,8 +107,10 @@ class EnvConfig:
 
     @property
     def role_width(self) -> int:
-        """Width of the role block: 2(N-1), twice that with ``observe_velocities``."""
-        return 2 * (self.num_robots - 1) * (2 if self.observe_velocities else 1)
+        """Width of the role block: 2(N-1), twice that with ``observe_velocities``, N-1 more with
+        ``observe_distance_errors``."""
+        n = self.num_robots - 1
+        return 2 * n * (2 if self.observe_velocities else 1) + (n if self.observe_distance_errors else 0)
 
     @property
     def area_formation(self) -> FormationConfig:
@@ -153,6 +157,7 @@ class EnvConfig:
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.relative_positions, "relative_positions", lambda v: isinstance(v, bool), "true or false")
         _check(self.observe_velocities, "observe_velocities", lambda v: isinstance(v, bool), "true or false")
+        _check(self.observe_distance_errors, "observe_distance_errors", lambda v: isinstance(v, bool), "true or false")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")
         for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):

@@ -88,7 +88,9 @@ def step_quantities(
     goal_dist = _norm(to_goal)  # [B]
 
     # |d_ij - d*_ij| under each formation (F of them), reduced per follower and over pairs
-    err = (dist[None] - geom.dstar).abs_()  # [F, N, N, B]
+    signed = dist[None] - geom.dstar  # [F, N, N, B]
+    gaps = signed * geom.own if cfg.observe_distance_errors else None  # what follower i sees of its pairs
+    err = signed.abs_()
     own_err = err * geom.own
     follower_err = own_err.sum(2)  # [F, N, B]
     worst = own_err.amax(2)  # [F, N, B], 0 for the leader
@@ -110,6 +112,7 @@ def step_quantities(
         def active(per_formation: torch.Tensor) -> torch.Tensor:
             return per_formation[0]
     follower_err, worst, formation_error = active(follower_err), active(worst), active(formation_error)
+    extra = {} if gaps is None else {"distance_error": active(gaps)}  # [N, N, B]
     if progress:
         prev_follower_err = active(prev_follower_err)
     bonus = torch.where(area, rw.formation_area, rw.formation_open)  # R3 or R2, [B]
@@ -160,4 +163,5 @@ def step_quantities(
         "obstacle_hit": obstacle_hit,
         "robot_collision": nearest_robot.amin(0) < 2 * r + cfg.robot_collision_margin,  # [B]
         "obstacle_collision": nearest_obstacle.amin(0) < cfg.obstacle_collision_margin,
+        **extra,
     }

@@ -152,29 +152,34 @@ def _source_rows(n: int, m: int) -> tuple[int, ...]:
     """First row of each block of the source :func:`observe` builds, and its total height.
 
     Blocks: positions x (N), y (N); velocities x (N), y (N); p_lea - p_g (2); a zero (1);
-    obstacle offsets x (N*M), y (N*M); sensed flags (N*M); obstacle-area flag (1).
+    obstacle offsets x (N*M), y (N*M); sensed flags (N*M); obstacle-area flag (1); distance errors d_ij - d*_ij
+    (N*N, row i*N + j; filled only with ``observe_distance_errors``).
     """
     P, V, G, Z = 0, 2 * n, 4 * n, 4 * n + 2
     OX, OY, S = Z + 1, Z + 1 + n * m, Z + 1 + 2 * n * m
     F = S + n * m
-    return P, V, G, Z, OX, OY, S, F, F + 1
+    E = F + 1
+    return P, V, G, Z, OX, OY, S, F, E, E + n * n
 
 
-def observation_index(n: int, m: int, device=None, velocities: bool = False) -> torch.Tensor:
+def observation_index(n: int, m: int, device=None, velocities: bool = False,
+                      distance_errors: bool = False) -> torch.Tensor:
     """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``;
-    ``velocities``: the role block goes on with the other robots' velocities (zeros for the leader)."""
-    P, V, G, Z, OX, OY, S, F, _ = _source_rows(n, m)
+    ``velocities``: the role block goes on with the other robots' velocities (zeros for the leader);
+    ``distance_errors``: ... then with ``d_ij - d*_ij`` to each other robot j (zeros for the leader)."""
+    P, V, G, Z, OX, OY, S, F, E, _ = _source_rows(n, m)
     rows = []
     for i in range(n):
         row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
-        if i == 0:
-            row += [G, G + 1] + [Z] * (2 * (n - 2) + (2 * (n - 1) if velocities else 0))  # p - p_g, then zeros
+        if i == 0:  # p - p_g, then zeros
+            row += [G, G + 1] + [Z] * (2 * (n - 2) + (2 * (n - 1) if velocities else 0) + (n - 1 if distance_errors else 0))
         else:
             others = [j if j < i else j + 1 for j in range(n - 1)]  # other robots in index order
             for k in others:
                 row += [P + k, P + n + k]
             for k in others if velocities else ():
                 row += [V + k, V + n + k]
+            row += [E + i * n + k for k in others] if distance_errors else []
         for j in range(m):
             row += [OX + i * m + j, OY + i * m + j, S + i * m + j]  # (p - c_j, 1) if sensed
         rows += row + [F]
@@ -189,7 +194,7 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     One gather of contiguous rows, then one transpose: no strided writes.
     """
     _, n, b = pos.shape
-    P, V, G, Z, OX, OY, S, F, height = _source_rows(n, q["sensed"].shape[1])
+    P, V, G, Z, OX, OY, S, F, E, height = _source_rows(n, q["sensed"].shape[1])
     source = torch.empty(height, b, dtype=pos.dtype, device=pos.device)
     source[P:V] = pos.reshape(2 * n, b)
     source[V:G] = vel.reshape(2 * n, b)
@@ -200,6 +205,8 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     torch.mul(ox, sensed, out=source[OX:OY].view_as(ox))  # (p - c_j, 1) if sensed, else zeros
     torch.mul(oy, sensed, out=source[OY:S].view_as(oy))
     source[F] = q["in_area"]
+    if "distance_error" in q:
+        source[E:] = q["distance_error"].reshape(n * n, b)
     return source.index_select(0, index).T.reshape(b, n, -1)
 
 

@@ -86,6 +86,37 @@ def test_observe_velocities_adds_the_others_velocities_after_their_positions(rel
     check_env_specs(FormationEnv(4, config=EnvConfig(observe_velocities=True, relative_positions=rel), seed=0))
 
 
+@pytest.mark.parametrize("inside", [False, True])
+def test_observe_distance_errors_adds_each_kept_pairs_error_under_the_active_formation(inside):
+    """env.observe_distance_errors: a follower's role block ends with d_ij - d*_ij to each other robot j, signed,
+    under the active formation (V outside the obstacle area, the chain inside), 0 where it keeps no distance to j;
+    the leader gets zeros; everything else is the observation without it."""
+    leader = [1.0, 1.0] if inside else [-3.5, 3.5]  # strictly inside the obstacle area or not
+    pos = [leader, [leader[0] - 0.3, leader[1] + 0.1], [leader[0] + 0.2, leader[1] - 0.6]]
+    state = dict(positions=[pos], velocities=[[[0.1, 0.2], [0.0, -0.3], [0.5, 0.0]]], goal=[[3.2, 3.1]],
+                 obstacle_centers=[[[3.0, 1.75], [-3.0, -1.0]]], obstacle_radii=[[0.5, 0.4]])
+    obs = {}
+    for gaps in (False, True):
+        cfg = EnvConfig(num_robots=3, num_obstacles=2, relative_positions=True, observe_velocities=True,
+                        observe_distance_errors=gaps)
+        assert cfg.obs_dim == 4 + 8 + (2 if gaps else 0) + 6 + 1
+        obs[gaps] = FormationEnv(1, config=cfg, seed=0).set_world_state(**state)["agents", "observation"][0]
+    plain, more = obs[False], obs[True]
+    assert more[0, -1] == float(inside)  # the obstacle-area flag
+    p = torch.tensor(pos)
+    d = torch.cdist(p, p)
+    v, s = 0.5 * math.sqrt(2 - 2 * math.cos(math.radians(90))), 0.5  # V: L1 and R1 0.5 m from the leader
+    if inside:  # the chain: L1 keeps 0.4 m to the leader, R1 0.4 m to L1, nothing else
+        expected = {1: [d[1, 0] - 0.4, 0.0], 2: [0.0, d[2, 1] - 0.4]}
+    else:  # the V: every pair
+        expected = {1: [d[1, 0] - s, d[1, 2] - v], 2: [d[2, 0] - s, d[2, 1] - v]}
+    for i in (1, 2):
+        torch.testing.assert_close(more[i, 12:14], torch.tensor(expected[i]))
+    assert (more[0, 12:14] == 0).all()
+    assert torch.equal(more[:, :12], plain[:, :12]) and torch.equal(more[:, 14:], plain[:, 12:])
+    check_env_specs(FormationEnv(4, config=EnvConfig(observe_distance_errors=True, relative_positions=True), seed=0))
+
+
 def test_partial_reset_only_touches_flagged_copies():
     env = FormationEnv(3, seed=0)
     td = env.reset()

@@ -117,10 +117,11 @@ def test_load_policy_apf_reads_the_layout_of_the_world_it_is_given():
 
 
 def test_controller_reads_the_layout_with_observed_velocities():
-    """env.observe_velocities moves the obstacle block back: the controller's actions stay the same."""
+    """env.observe_velocities and observe_distance_errors move the obstacle block back: the controller's actions
+    stay the same."""
     paths = []
-    for vel in (False, True):
-        cfg = EnvConfig(relative_positions=True, observe_velocities=vel)
+    for vel, gaps in ((False, False), (True, False), (True, True)):
+        cfg = EnvConfig(relative_positions=True, observe_velocities=vel, observe_distance_errors=gaps)
         env = FormationEnv(16, config=cfg, seed=3)
         policy = TensorDictModule(APFController(cfg), [("agents", "observation")], [("agents", "action")])
         with torch.no_grad():
@@ -129,3 +130,4 @@ def test_controller_reads_the_layout_with_observed_velocities():
         sensed = ro["agents", "observation"][..., 4 + cfg.role_width + 2::3]
     assert sensed.any()  # obstacles were in view: the shifted block was read
     torch.testing.assert_close(paths[0], paths[1])
+    torch.testing.assert_close(paths[0], paths[2])
