@@ -96,8 +96,8 @@ class EnvConfig:
     observe_velocities: bool = False  # followers also see the others' velocities after their positions (a departure)
     observe_distance_errors: bool = False  # ... and then d_ij - d*_ij to each other robot under the active formation,
     #                                        0 for a pair it does not keep (a departure)
-    leader_observes_team: bool = False  # with observe_distance_errors, the leader's block (zeros otherwise) has d_0j - d*_0j
-    #                                     to each follower j that keeps a distance to it (a departure)
+    leader_observes_team: bool = False  # with observe_distance_errors, the leader's block (zeros otherwise) has
+    #                                     d_0j - d*_0j to each follower j that keeps a distance to it (a departure)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
