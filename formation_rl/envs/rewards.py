@@ -20,8 +20,6 @@ class Geometry:
 
     dstar: torch.Tensor  # [F, N, N, 1] desired distances d*_ij
     own: torch.Tensor  # [F, N, N, 1] 1 where follower i keeps d*_ij to robot j
-    seen: torch.Tensor  # [F, N, N, 1] the pairs robot i sees the errors of (observe_distance_errors): its own, and the
-    #                     leader's pairs for the leader with leader_observes_team
     pairs: torch.Tensor  # [F, N, N, 1] 1 on unordered constrained pairs i < j (RFSE)
     no_self: torch.Tensor  # [N, N, 1] +inf on the diagonal, 0 elsewhere
 
@@ -34,14 +32,9 @@ class Geometry:
         def stack(fn) -> torch.Tensor:
             return torch.stack([fn(f, n).float() for f in shapes])[..., None].to(device)
 
-        own = stack(formations.constraints)
-        seen = own.clone()
-        if cfg.leader_observes_team:
-            seen[:, 0] = own[:, :, 0]  # the leader sees d_0j - d*_0j for each follower j that keeps one to it
         return cls(
             dstar=stack(formations.desired_distances),
-            own=own,
-            seen=seen,
+            own=stack(formations.constraints),
             pairs=stack(formations.pair_mask),
             no_self=torch.diag(torch.full((n,), float("inf")))[..., None].to(device),
         )
@@ -96,7 +89,7 @@ def step_quantities(
 
     # |d_ij - d*_ij| under each formation (F of them), reduced per follower and over pairs
     signed = dist[None] - geom.dstar  # [F, N, N, B]
-    gaps = signed * geom.seen if cfg.observe_distance_errors else None  # what robot i sees of its pairs
+    gaps = signed * geom.own if cfg.observe_distance_errors else None  # what follower i sees of its pairs
     err = signed.abs_()
     own_err = err * geom.own
     follower_err = own_err.sum(2)  # [F, N, B]

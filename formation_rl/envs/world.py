@@ -172,8 +172,8 @@ def observation_index(n: int, m: int, device=None, velocities: bool = False,
     for i in range(n):
         row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
         if i == 0:  # p - p_g, then zeros
-            row += [G, G + 1] + [Z] * (2 * (n - 2) + (2 * (n - 1) if velocities else 0))
-            row += [E + k for k in range(1, n)] if distance_errors else []  # zeros unless leader_observes_team
+            zeros = 2 * (n - 2) + (2 * (n - 1) if velocities else 0) + (n - 1 if distance_errors else 0)
+            row += [G, G + 1] + [Z] * zeros
         else:
             others = [j if j < i else j + 1 for j in range(n - 1)]  # other robots in index order
             for k in others:

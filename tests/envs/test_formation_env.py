@@ -114,16 +114,7 @@ def test_observe_distance_errors_adds_each_kept_pairs_error_under_the_active_for
         torch.testing.assert_close(more[i, 12:14], torch.tensor(expected[i]))
     assert (more[0, 12:14] == 0).all()
     assert torch.equal(more[:, :12], plain[:, :12]) and torch.equal(more[:, 14:], plain[:, 12:])
-    # env.leader_observes_team: the leader's block has d_0j - d*_0j for each follower j that keeps one to it
-    cfg = EnvConfig(num_robots=3, num_obstacles=2, relative_positions=True, observe_velocities=True,
-                    observe_distance_errors=True, leader_observes_team=True)
-    lead = FormationEnv(1, config=cfg, seed=0).set_world_state(**state)["agents", "observation"][0]
-    torch.testing.assert_close(lead[0, 12:14], torch.tensor([d[0, 1] - (0.4 if inside else s),
-                                                             0.0 if inside else d[0, 2] - s]))
-    assert torch.equal(lead[1:], more[1:]) and torch.equal(lead[0, :12], more[0, :12])
     check_env_specs(FormationEnv(4, config=EnvConfig(observe_distance_errors=True, relative_positions=True), seed=0))
-    with pytest.raises(ValueError, match=r"^env.leader_observes_team = True is invalid: must be false, or true with "):
-        EnvConfig(leader_observes_team=True).validate()
 
 
 def test_partial_reset_only_touches_flagged_copies():
