@@ -96,8 +96,6 @@ class EnvConfig:
     observe_velocities: bool = False  # followers also see the others' velocities after their positions (a departure)
     observe_distance_errors: bool = False  # ... and then d_ij - d*_ij to each other robot under the active formation,
     #                                        0 for a pair it does not keep (a departure)
-    leader_sees_team: bool = False  # with observe_velocities and relative_positions, the leader's velocity block (zeros
-    #                                 otherwise) has its followers' positions relative to its own (a departure)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
@@ -160,9 +158,6 @@ class EnvConfig:
         _check(self.relative_positions, "relative_positions", lambda v: isinstance(v, bool), "true or false")
         _check(self.observe_velocities, "observe_velocities", lambda v: isinstance(v, bool), "true or false")
         _check(self.observe_distance_errors, "observe_distance_errors", lambda v: isinstance(v, bool), "true or false")
-        _check(self.leader_sees_team, "leader_sees_team", lambda v: isinstance(v, bool) and (
-            not v or (self.observe_velocities and self.relative_positions)),
-               "false, or true with observe_velocities and relative_positions true")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")
         for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):

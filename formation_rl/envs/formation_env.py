@@ -58,7 +58,7 @@ class FormationEnv(EnvBase):
         self._make_specs(b, n, m, d)
         self._geom = Geometry.build(cfg, self.device)
         self._obs_index = world.observation_index(n, m, self.device, cfg.observe_velocities,
-                                                   cfg.observe_distance_errors, cfg.leader_sees_team)
+                                                   cfg.observe_distance_errors)
         self._advance = torch.compile(self._advance_eager) if compile_physics else self._advance_eager
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(int(torch.randint(2**62, ())) if seed is None else seed)
@@ -127,7 +127,7 @@ class FormationEnv(EnvBase):
         q = step_quantities(pos, vel, goal, centers, radii, self._geom, self.config, prev_pos)
         obs = world.observe(pos, vel, q, self._obs_index)  # [B, N, D]
         if self.config.relative_positions:
-            obs = world.make_relative(obs, self.config.observe_velocities, self.config.leader_sees_team)
+            obs = world.make_relative(obs, self.config.observe_velocities)
         return {
             "observation": obs,
             "reward": q["reward"].T.unsqueeze(-1).contiguous(),  # [B, N, 1]

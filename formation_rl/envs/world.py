@@ -163,19 +163,15 @@ def _source_rows(n: int, m: int) -> tuple[int, ...]:
 
 
 def observation_index(n: int, m: int, device=None, velocities: bool = False,
-                      distance_errors: bool = False, leader_sees_team: bool = False) -> torch.Tensor:
+                      distance_errors: bool = False) -> torch.Tensor:
     """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``;
-    ``velocities``: the role block goes on with the other robots' velocities (zeros for the leader, or with
-    ``leader_sees_team`` its followers' positions, made relative by :func:`make_relative`);
+    ``velocities``: the role block goes on with the other robots' velocities (zeros for the leader);
     ``distance_errors``: ... then with ``d_ij - d*_ij`` to each other robot j (zeros for the leader)."""
     P, V, G, Z, OX, OY, S, F, E, _ = _source_rows(n, m)
     rows = []
     for i in range(n):
         row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
-        if i == 0 and leader_sees_team:  # p - p_g, zeros, the followers' positions, zeros
-            row += [G, G + 1] + [Z] * (2 * (n - 2)) + [r for k in range(1, n) for r in (P + k, P + n + k)]
-            row += [Z] * (n - 1 if distance_errors else 0)
-        elif i == 0:  # p - p_g, then zeros
+        if i == 0:  # p - p_g, then zeros
             zeros = 2 * (n - 2) + (2 * (n - 1) if velocities else 0) + (n - 1 if distance_errors else 0)
             row += [G, G + 1] + [Z] * zeros
         else:
@@ -215,7 +211,7 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     return source.index_select(0, index).T.reshape(b, n, -1)
 
 
-def make_relative(obs: torch.Tensor, velocities: bool = False, leader_sees_team: bool = False) -> torch.Tensor:
+def make_relative(obs: torch.Tensor, velocities: bool = False) -> torch.Tensor:
     """Followers' role blocks of ``obs`` [B, N, D] as positions relative to their own: p_j - p_i, in place
     (and, with ``velocities``, the others' velocities relative to their own: v_j - v_i).
 
@@ -227,6 +223,4 @@ def make_relative(obs: torch.Tensor, velocities: bool = False, leader_sees_team:
     if velocities:
         start = 4 + 2 * (n - 1)
         obs[..., 1:, start:start + 2 * (n - 1)].unflatten(-1, (n - 1, 2)).sub_(obs[..., 1:, None, 2:4])
-        if leader_sees_team:  # the leader's followers, relative to it
-            obs[..., 0, start:start + 2 * (n - 1)].unflatten(-1, (n - 1, 2)).sub_(obs[..., 0, None, 0:2])
     return obs

@@ -117,27 +117,6 @@ def test_observe_distance_errors_adds_each_kept_pairs_error_under_the_active_for
     check_env_specs(FormationEnv(4, config=EnvConfig(observe_distance_errors=True, relative_positions=True), seed=0))
 
 
-def test_leader_sees_team_puts_its_followers_relative_positions_in_its_velocity_block():
-    """env.leader_sees_team: the leader's velocity block (zeros otherwise) has p_j - p_lea for each follower j in
-    index order; the followers' observations and the rest of the leader's are unchanged."""
-    state = dict(positions=[[[1.0, 1.0], [0.0, 1.2], [-2.0, 3.0]]], velocities=[[[0.1, 0.2], [0.0, -0.3], [0.5, 0.0]]],
-                 goal=[[3.2, 3.1]], obstacle_centers=[[[1.0, 1.75], [-3.0, -1.0]]], obstacle_radii=[[0.5, 0.4]])
-    obs = {}
-    for sees in (False, True):
-        cfg = EnvConfig(num_robots=3, num_obstacles=2, relative_positions=True, observe_velocities=True,
-                        leader_sees_team=sees)
-        obs[sees] = FormationEnv(1, config=cfg, seed=0).set_world_state(**state)["agents", "observation"][0]
-    blind, sees = obs[False], obs[True]
-    assert (blind[0, 8:12] == 0).all()
-    torch.testing.assert_close(sees[0, 8:12], torch.tensor([-1.0, 0.2, -3.0, 2.0]))
-    assert torch.equal(sees[1:], blind[1:]) and torch.equal(sees[0, :8], blind[0, :8])
-    assert torch.equal(sees[0, 12:], blind[0, 12:])
-    check_env_specs(FormationEnv(4, config=EnvConfig(observe_velocities=True, relative_positions=True,
-                                                     leader_sees_team=True), seed=0))
-    with pytest.raises(ValueError, match=r"^env.leader_sees_team = True is invalid: must be false, or true with "):
-        EnvConfig(leader_sees_team=True, relative_positions=True).validate()
-
-
 def test_partial_reset_only_touches_flagged_copies():
     env = FormationEnv(3, seed=0)
     td = env.reset()
