@@ -155,9 +155,8 @@ class EnvConfig:
         _check(self.num_obstacles, "num_obstacles", lambda v: isinstance(v, int) and v >= 0, "an integer >= 0")
         _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
-        _check(self.relative_positions, "relative_positions", lambda v: isinstance(v, bool), "true or false")
-        _check(self.observe_velocities, "observe_velocities", lambda v: isinstance(v, bool), "true or false")
-        _check(self.observe_distance_errors, "observe_distance_errors", lambda v: isinstance(v, bool), "true or false")
+        for name in ("relative_positions", "observe_velocities", "observe_distance_errors"):
+            _check(getattr(self, name), name, lambda v: isinstance(v, bool), "true or false")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")
         for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):
