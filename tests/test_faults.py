@@ -112,6 +112,8 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["algo=ppo"], "algo = 'ppo' is invalid: must be one of maddpg, matd3, per_matd3"),
     ("train", ["algo=apf"], "algo = 'apf' is invalid: must be one of maddpg, matd3, per_matd3"),
     ("train", ["algo.bc_weight=-1"], "algo.bc_weight = -1.0 is invalid: must be >= 0"),
+    ("train", ["env.observe_distance_errors=3"], "env.observe_distance_errors = 3 is invalid: must be true or false"),
+    ("train", ["progress=yes"], "progress = 'yes' is invalid: must be true or false"),
     ("train", ["formation=star"], "formation = 'star' is invalid: must be one of chain, v"),
     ("train", ["reward=curvy"], "reward = 'curvy' is invalid: must be one of fixed, hybrid"),
     ("train", ["budget=huge"], "budget = 'huge' is invalid: must be one of default, fast, paper"),

@@ -98,7 +98,11 @@ def check_overrides(schema: type, groups: tuple[str, ...], argv: list[str] | Non
                 continue
             for v in values:
                 try:
-                    OmegaConf.update(base.copy(), key, v, merge=True)
+                    cfg = base.copy()
+                    OmegaConf.update(cfg, key, v, merge=True)
+                    # OmegaConf turns 3, 0 or "yes" into a bool field's True/False; only true/false are meant
+                    if isinstance(OmegaConf.select(cfg, key), bool) and not isinstance(v, bool):
+                        raise ValueError(f"{key} = {v!r} is invalid: must be true or false")
                 except OmegaConfBaseException as err:
                     parent, _, leaf = key.rpartition(".")
                     node = OmegaConf.select(base, parent) if parent else base
