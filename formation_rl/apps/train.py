@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import logging
+import sys
 from pathlib import Path
 
 import hydra
@@ -16,12 +17,24 @@ from omegaconf import DictConfig
 
 from formation_rl.apps.cli import CONF, one_line_errors
 from formation_rl.models import bf16_speedup
-from formation_rl.training.checkpoint import BEST_POLICY
+from formation_rl.training.checkpoint import BEST_POLICY, CHECKPOINT
 from formation_rl.training.config import BF16_MIN_SPEEDUP, register
 from formation_rl.training.trainer import Trainer, to_train_config
 
 register()
 log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/job_logging/plain.yaml)
+
+
+def check_fresh_run_dir(argv: list[str] | None = None) -> None:
+    """Refuse, before Hydra writes into it, a ``hydra.run.dir`` that already holds a run's checkpoint unless
+    ``resume`` is given: a new run there would overwrite that run's checkpoints and config."""
+    argv = sys.argv[1:] if argv is None else argv
+    given = dict(a.split("=", 1) for a in argv if "=" in a and not a.startswith("-"))
+    run_dir = given.get("hydra.run.dir")
+    if run_dir and "resume" not in given and (Path(run_dir) / CHECKPOINT).is_file():
+        print(f"error: hydra.run.dir = {run_dir!r} is invalid: it already holds a run ({CHECKPOINT}); "
+              "resume=auto continues it, or give another directory", file=sys.stderr)
+        sys.exit(2)
 
 
 @hydra.main(config_path=str(CONF), config_name="config", version_base=None)
@@ -54,4 +67,5 @@ if __name__ == "__main__":
     from formation_rl.training.config import TrainConfig
 
     check_overrides(TrainConfig, ("algo", "formation", "reward", "budget", "recipe", "env"))
+    check_fresh_run_dir()
     main()

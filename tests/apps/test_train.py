@@ -29,6 +29,12 @@ def test_cli_tiny_run_and_errors(tmp_path):
     log = (tmp_path / "train.log").read_text()  # was empty: the summary is logged, not printed
     assert "final evaluation" in log and "run directory" in log
     assert "best validation evaluation: success" in log and (tmp_path / "checkpoints" / "best_policy.pt").is_file()
+    ckpt = tmp_path / "checkpoints" / "last.pt"
+    before = (ckpt.stat().st_mtime_ns, (tmp_path / ".hydra" / "overrides.yaml").read_text())
+    again = _cli("algo=matd3", f"hydra.run.dir={tmp_path}")  # a finished run's directory: refused, nothing touched
+    assert again.returncode == 2 and again.stderr.strip().startswith(f"error: hydra.run.dir = '{tmp_path}' is invalid")
+    assert "resume=auto" in again.stderr
+    assert before == (ckpt.stat().st_mtime_ns, (tmp_path / ".hydra" / "overrides.yaml").read_text())
     bad = _cli("algo=ppo", f"hydra.run.dir={tmp_path}/x")
     assert bad.returncode != 0 and "maddpg" in bad.stderr and "per_matd3" in bad.stderr
     bad = _cli("algo.lr_actor=-1", f"hydra.run.dir={tmp_path}/y")
