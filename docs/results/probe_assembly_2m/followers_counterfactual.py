@@ -1,0 +1,56 @@
+"""What the followers' own choices cost the formation: one policy on 100 validation episodes (seed 1,000,000,007),
+as it flies and with its followers' actions changed, printing the followers' discounted return (gamma 0.95) from
+step 20, RFSE, the formation error by phase and the share of episodes with a robot or an obstacle contact.
+
+    python docs/results/probe_assembly_2m/followers_counterfactual.py CKPT
+
+Changes: "forward": + beta x the leader's heading (unit vector) added to each follower's action in steps lo..hi;
+"match": + k (v_lea - v_i) / v_max added from step 3 (a velocity-matching push); "copy": each follower takes the
+leader's action from step 3, so the team moves as one rigid body (the start's distances kept).
+"""
+import sys
+
+import torch
+
+from formation_rl import load_policy
+from formation_rl.envs import FormationEnv
+from formation_rl.training.config import TrainConfig
+
+EPISODES = 100
+CHANGES = (("as it flies", None, 0.0, 0, 0), ("forward 0.3, steps 20-59", "forward", 0.3, 20, 60),
+           ("forward 1.0, steps 20-59", "forward", 1.0, 20, 60), ("forward 1.0, steps 20-129", "forward", 1.0, 20, 130),
+           ("match k = 2", "match", 2.0, 3, 150), ("match k = 5", "match", 5.0, 3, 150), ("copy", "copy", 0.0, 3, 150))
+
+if len(sys.argv) != 2:
+    sys.exit("usage: python docs/results/probe_assembly_2m/followers_counterfactual.py CKPT")
+torch.set_num_threads(1)
+policy = load_policy(sys.argv[1])
+print(f"{sys.argv[1]}\n| followers' actions | followers' return from step 20 | RFSE (m) | error, steps 20-59 | "
+      "error, steps 60-149 | robot contact | obstacle contact |\n|---|---|---|---|---|---|---|")
+for name, kind, w, lo, hi in CHANGES:
+    env = FormationEnv(EPISODES, config=policy.env_config, seed=TrainConfig.eval_seed)
+    td, ret, err = env.reset(), torch.zeros(EPISODES, env.config.num_robots), []
+    robot, obstacle = torch.zeros(EPISODES, dtype=torch.bool), torch.zeros(EPISODES, dtype=torch.bool)
+    with torch.no_grad():
+        for t in range(env.config.max_steps):
+            td = policy(td)
+            if kind and lo <= t < hi:
+                a, v = td["agents", "action"].clone(), td["state", "velocities"]
+                if kind == "forward":
+                    heading = v[:, 0] / v[:, 0].norm(dim=-1, keepdim=True).clamp_min(1e-6)
+                    a[:, 1:] += w * heading[:, None]
+                elif kind == "match":
+                    a[:, 1:] += w * (v[:, :1] - v[:, 1:]) / env.config.max_speed
+                else:
+                    a[:, 1:] = a[:, :1]
+                td["agents", "action"] = a.clamp(-1, 1)
+            nxt = env.step(td)["next"]
+            if t >= 20:
+                ret += nxt["agents", "reward"].squeeze(-1) * 0.95 ** (t - 20)
+            err.append(nxt["formation_error"].reshape(EPISODES))
+            robot |= nxt["robot_collision"].reshape(EPISODES)
+            obstacle |= nxt["obstacle_collision"].reshape(EPISODES)
+            td = nxt
+    err = torch.stack(err)
+    print(f"| {name} | {ret[:, 1:].mean():.2f} | {err.mean():.2f} | {err[20:60].mean():.2f} | {err[60:].mean():.2f} | "
+          f"{robot.float().mean():.2f} | {obstacle.float().mean():.2f} |")
