@@ -28,10 +28,16 @@ log = logging.getLogger(__name__)  # stdout and the run's train.log (conf/hydra/
 def check_fresh_run_dir(argv: list[str] | None = None) -> None:
     """Refuse, before Hydra writes into it, a ``hydra.run.dir`` that already holds a run's checkpoint unless
     ``resume`` is given: a new run there would overwrite that run's checkpoints and config."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
     argv = sys.argv[1:] if argv is None else argv
-    given = dict(a.split("=", 1) for a in argv if "=" in a and not a.startswith("-"))
+    try:  # Hydra's own parser, so quoted values read as Hydra will read them
+        given = {o.key_or_group: o.value() for o in OverridesParser.create().parse_overrides(
+            [a for a in argv if "=" in a and not a.startswith("-")]) if not o.is_sweep_override()}
+    except Exception:  # noqa: BLE001  (malformed: Hydra reports it)
+        return
     run_dir = given.get("hydra.run.dir")
-    if run_dir and "resume" not in given and (Path(run_dir) / CHECKPOINT).is_file():
+    if run_dir and given.get("resume") in (None, False, "") and (Path(str(run_dir)) / CHECKPOINT).is_file():
         print(f"error: hydra.run.dir = {run_dir!r} is invalid: it already holds a run ({CHECKPOINT}); "
               "resume=auto continues it, or give another directory", file=sys.stderr)
         sys.exit(2)

@@ -13,6 +13,7 @@ import tempfile
 import torch
 
 from formation_rl.apps.tune import train_config
+from formation_rl.evaluation.evaluate import evaluate_policy
 from formation_rl.training.trainer import Trainer
 
 if len(sys.argv) < 2:
@@ -20,18 +21,12 @@ if len(sys.argv) < 2:
 torch.set_num_threads(1)
 trainer = Trainer(train_config(["eval_episodes=100", *sys.argv[2:]]), tempfile.mkdtemp())
 trainer.load_checkpoint(sys.argv[1] + "/checkpoints/last.pt")
-env, actor = trainer.eval_env, trainer.actor
 qnet, params = trainer.algo.loss.qvalue_network, trainer.algo.loss.qvalue_network_params  # public attributes
-obs, act, vel = [], [], []
-with torch.no_grad():
-    td = env.reset()
-    for t in range(60):
-        td = actor(td)
-        if t >= 20:
-            obs.append(td["agents", "observation"]); act.append(td["agents", "action"])
-            vel.append(td["state", "velocities"])
-        td = env.step(td)["next"]
-obs, act, vel = (torch.cat(x) for x in (obs, act, vel))
+flown = evaluate_policy(trainer.actor, trainer.cfg.env, 100, seed=trainer.cfg.eval_seed, progress=False,
+                        metrics=lambda r, _: {"obs": r["agents", "observation"][:, 20:60],
+                                              "act": r["agents", "action"][:, 20:60],
+                                              "vel": r["state", "velocities"][:, 20:60]})
+obs, act, vel = (flown[k].flatten(0, 1) for k in ("obs", "act", "vel"))  # steps 20-59 of every episode
 
 
 def q(action):
@@ -47,8 +42,8 @@ with torch.no_grad():
     heading = vel[:, 0] / vel[:, 0].norm(dim=-1, keepdim=True).clamp_min(1e-6)
     full = heading / heading.abs().amax(-1, keepdim=True).clamp_min(1e-6)  # full force along the leader's heading
     print(f"{sys.argv[1]}: followers' speed {vel[:, 1:].norm(dim=-1).mean():.2f} m/s, leader's "
-          f"{vel[:, 0].norm(dim=-1).mean():.2f} (steps 20-59)\n| follower's action replaced by | follower 1 | 2 | 3 | 4 |"
-          "\n|---|---|---|---|---|")
+          f"{vel[:, 0].norm(dim=-1).mean():.2f} (steps 20-59)\n"
+          "| follower's action replaced by | follower 1 | 2 | 3 | 4 |\n|---|---|---|---|---|")
     for name, alt in (("full force along the leader's heading", full), ("zero force", torch.zeros_like(full)),
                       ("full force against the leader's heading", -full)):
         cells = []
