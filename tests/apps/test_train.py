@@ -34,6 +34,8 @@ def test_cli_tiny_run_and_errors(tmp_path):
     again = _cli("algo=matd3", f"hydra.run.dir={tmp_path}")  # a finished run's directory: refused, nothing touched
     assert again.returncode == 2 and again.stderr.strip().startswith(f"error: hydra.run.dir = '{tmp_path}' is invalid")
     assert "resume=auto" in again.stderr
+    again = _cli(f"hydra.run.dir='{tmp_path}'", "resume=null")  # quoted, and a resume that resumes nothing
+    assert again.returncode == 2 and "it already holds a run" in again.stderr
     assert before == (ckpt.stat().st_mtime_ns, (tmp_path / ".hydra" / "overrides.yaml").read_text())
     bad = _cli("algo=ppo", f"hydra.run.dir={tmp_path}/x")
     assert bad.returncode != 0 and "maddpg" in bad.stderr and "per_matd3" in bad.stderr
