@@ -60,6 +60,8 @@ class RewardConfig:
     leader_robot_collision: float = 1.0  # the leader's share of R5 (ours; 1: the paper). 0: followers alone answer
     #                                      for robot contacts, and a contact leaves the leader's guided term in place;
     #                                      it scales the robot part of the leader's proximity ramp too
+    start_robot_collision: float | None = None  # R5 for a robot's contact while it is inside the start square, where
+    #                                             the team assembles from discs 0.3 m apart (ours); None: R5 everywhere
 
 
 @dataclass
@@ -201,6 +203,8 @@ class EnvConfig:
         _check(r.leader_robot_collision, "reward.leader_robot_collision", lambda v: _finite(v) and 0 <= v <= 1,
                "a number in [0, 1]")
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")
+        _check(r.start_robot_collision, "reward.start_robot_collision", lambda v: v is None or _finite(v),
+               "a finite number or null")
 
 
 def _sub(cls: type, value: Any, where: str) -> Any:

@@ -123,8 +123,13 @@ def step_quantities(
     positive_value = bonus.expand(n, b).clone()
     positive_value[0] = rw.goal
     r5, robot_event = rw.robot_collision, robot_hit  # R5, and the contacts whose event replaces the guided term
+    if rw.start_robot_collision is not None:  # a robot inside the start square pays its own price for a contact
+        lo, hi = cfg.start_low, cfg.start_high
+        start = (px >= lo) & (px <= hi) & (py >= lo) & (py <= hi)  # [N, B]
+        r5 = torch.full_like(px, rw.robot_collision).masked_fill_(start, rw.start_robot_collision)
     if rw.leader_robot_collision != 1.0:  # the leader's share of R5; at 0 its contacts are no event for it
-        r5 = torch.full((n, 1), rw.robot_collision, dtype=pos.dtype, device=pos.device)
+        if not torch.is_tensor(r5):
+            r5 = torch.full((n, 1), rw.robot_collision, dtype=pos.dtype, device=pos.device)
         r5[0] *= rw.leader_robot_collision
         robot_event = robot_hit & (r5 != 0)
     sparse = positive * positive_value + obstacle_hit * rw.obstacle_collision + robot_hit * r5

@@ -247,6 +247,27 @@ def test_leader_robot_collision_share():
         bad.validate()
 
 
+def test_start_robot_collision_prices_a_contact_inside_the_start_square():
+    """reward.start_robot_collision: a robot in contact pays it while inside the start square, R5 elsewhere."""
+    cfg = EnvConfig(num_obstacles=1)
+    cfg.reward = RewardConfig(robot_collision=-10.0, start_robot_collision=-25.0, leader_robot_collision=0.0)
+    env = FormationEnv(1, config=cfg, seed=0)
+    inside = [[-3.5, -3.5], [-3.3, -3.3], [-2.0, 0.0], [0.0, 2.0], [2.0, 0.0]]  # leader and L1 in contact, inside
+    r, _ = rewards_at(env, inside)
+    assert r[1] == pytest.approx(-25.0)
+    assert r[0] == pytest.approx(-math.dist(inside[0], (3.2, 3.2)), abs=1e-5)  # the leader's share is 0
+    straddle = [[-2.9, -2.9], [-2.7, -2.7], [-2.0, 0.0], [0.0, 2.0], [2.0, 0.0]]  # L1 just outside the square
+    r, _ = rewards_at(env, straddle)
+    assert r[1] == pytest.approx(-10.0)
+    cfg.reward = RewardConfig(robot_collision=-10.0, start_robot_collision=-25.0)  # the paper's share: both pay
+    r, _ = rewards_at(FormationEnv(1, config=cfg, seed=0), straddle)
+    assert (r[0], r[1]) == (pytest.approx(-25.0), pytest.approx(-10.0))
+    with pytest.raises(ValueError, match=r"env.reward.start_robot_collision = nan"):
+        bad = EnvConfig()
+        bad.reward = RewardConfig(start_robot_collision=float("nan"))
+        bad.validate()
+
+
 def test_own_progress_credits_a_follower_with_its_own_move_only():
     """reward.own_progress: follower i's progress is e_i(its previous position, the others now) - e_i(now):
     a follower that stands still earns nothing when the others move, whichever way they go."""
