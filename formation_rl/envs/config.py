@@ -50,6 +50,8 @@ class RewardConfig:
     follower_velocity: float = 0.0  # follower guided += -follower_velocity * |v_i - v_lea| / v_max: the leader's
     #                                 velocity matched (a team that translates rigidly keeps every distance; ours)
     leader_team: float = 0.0  # leader guided += -leader_team * mean follower formation error (waits for its team)
+    follower_slot: float = 0.0  # follower guided += -follower_slot * |p_i - its slot|, the formation's slots placed
+    #                             at the leader, turned to its heading (from rest: toward the goal); ours
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
@@ -195,7 +197,7 @@ class EnvConfig:
             _check_formation(r.area_formation, "reward.area_formation")
         for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
                      "leader_distance", "leader_progress", "follower_error", "follower_progress", "follower_velocity",
-                     "leader_team", "proximity"):
+                     "leader_team", "follower_slot", "proximity"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")

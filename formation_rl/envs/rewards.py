@@ -22,6 +22,7 @@ class Geometry:
     own: torch.Tensor  # [F, N, N, 1] 1 where follower i keeps d*_ij to robot j
     pairs: torch.Tensor  # [F, N, N, 1] 1 on unordered constrained pairs i < j (RFSE)
     no_self: torch.Tensor  # [N, N, 1] +inf on the diagonal, 0 elsewhere
+    slots: torch.Tensor  # [F, 2, N, 1] slot positions in the formation frame (leader at the origin facing +x)
 
     @classmethod
     def build(cls, cfg: EnvConfig, device) -> Geometry:
@@ -37,6 +38,7 @@ class Geometry:
             own=stack(formations.constraints),
             pairs=stack(formations.pair_mask),
             no_self=torch.diag(torch.full((n,), float("inf")))[..., None].to(device),
+            slots=torch.stack([formations.slots(f, n).float().T for f in shapes])[..., None].to(device),
         )
 
 
@@ -139,6 +141,14 @@ def step_quantities(
         guided[1:] -= _norm(vel[:, 1:] - vel[:, :1]) * (rw.follower_velocity / cfg.max_speed)
     if rw.leader_team:
         guided[0] -= rw.leader_team * follower_err[1:].mean(0)
+    if rw.follower_slot:  # distance to its slot, the formation frame turned to the leader's heading
+        heading = vel[:, 0]  # [2, B]; from rest (slower than 5% of v_max) the leader's direction to the goal
+        heading = torch.where(_norm(heading) > 0.05 * cfg.max_speed, heading, -to_goal)
+        cos, sin = heading / _norm(heading).clamp_min(1e-6)  # [B] each
+        sx, sy = geom.slots[:, 0], geom.slots[:, 1]  # [F, N, 1]
+        ex = px - px[:1] - (sx * cos - sy * sin)  # [F, N, B]
+        ey = py - py[:1] - (sx * sin + sy * cos)
+        guided[1:] -= rw.follower_slot * active(torch.addcmul(ex * ex, ey, ey).sqrt_())[1:]
     if rw.proximity:  # a ramp toward every collision, before it happens
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]

@@ -268,6 +268,33 @@ def test_start_robot_collision_prices_a_contact_inside_the_start_square():
         bad.validate()
 
 
+def test_follower_slot_is_the_distance_to_the_slot_turned_to_the_leaders_heading():
+    """reward.follower_slot: a follower pays w x its distance to its V slot, the V placed at the leader and turned to
+    its heading (L2 is 0.2 m off its slot, so no follower holds the V's distances and earns R2 instead)."""
+    slots = np.array(v_slots())  # outside the obstacle area: the V is active
+    team = slots.copy()
+    team[3, 1] -= 0.2  # (toward the arena: the wall would stop it)
+
+    def rewards(slot, heading):
+        cfg = EnvConfig(num_obstacles=1)
+        cfg.reward = RewardConfig(follower_slot=slot, leader_distance=0.0, follower_error=0.0)
+        env = FormationEnv(1, config=cfg, seed=0)
+        vel = torch.tensor(heading, dtype=torch.float32).expand(1, 5, 2)
+        env.set_world_state(positions=[team.tolist()], velocities=vel, goal=[(3.2, 3.2)],
+                            obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
+        td = TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1])
+        return env.step(td)["next", "agents", "reward"][0, :, 0].double().numpy()
+
+    ahead = rewards(2.0, (0.5, 0.0)) - rewards(0.0, (0.5, 0.0))
+    np.testing.assert_allclose(ahead, [0.0, 0.0, 0.0, -2.0 * 0.2, 0.0], atol=1e-4)
+    # flying along +y the V turns by 90 degrees: slot (x, y) relative to the leader goes to (-y, x)
+    offsets = slots - slots[0]
+    turned_slots = slots[0] + np.stack([-offsets[:, 1], offsets[:, 0]], -1)
+    expected = -2.0 * np.linalg.norm(team - turned_slots, axis=-1)
+    expected[0] = 0.0
+    np.testing.assert_allclose(rewards(2.0, (0.0, 0.5)) - rewards(0.0, (0.0, 0.5)), expected, atol=1e-4)
+
+
 def test_own_progress_credits_a_follower_with_its_own_move_only():
     """reward.own_progress: follower i's progress is e_i(its previous position, the others now) - e_i(now):
     a follower that stands still earns nothing when the others move, whichever way they go."""
