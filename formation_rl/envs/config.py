@@ -50,8 +50,9 @@ class RewardConfig:
     follower_velocity: float = 0.0  # follower guided += -follower_velocity * |v_i - v_lea| / v_max: the leader's
     #                                 velocity matched (a team that translates rigidly keeps every distance; ours)
     leader_team: float = 0.0  # leader guided += -leader_team * mean follower formation error (waits for its team)
-    follower_slot: float = 0.0  # follower guided += -follower_slot * |p_i - its slot|, the formation's slots placed
-    #                             at the leader, turned to its heading (from rest: toward the goal); ours
+    follower_slot: float = 0.0  # follower guided += -follower_slot * |p_i - its slot|, the open-space formation's
+    #                             slots placed at the leader, turned to its heading (from rest: toward the goal);
+    #                             0 while the area formation is active (ours)
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts

@@ -141,14 +141,18 @@ def step_quantities(
         guided[1:] -= _norm(vel[:, 1:] - vel[:, :1]) * (rw.follower_velocity / cfg.max_speed)
     if rw.leader_team:
         guided[0] -= rw.leader_team * follower_err[1:].mean(0)
-    if rw.follower_slot:  # distance to its slot, the formation frame turned to the leader's heading
+    if rw.follower_slot:  # distance to its open-space slot, the formation frame turned to the leader's heading;
+        # none inside the obstacle area, where slots turned with the leader would swing through the obstacles it rounds
         heading = vel[:, 0]  # [2, B]; from rest (slower than 5% of v_max) the leader's direction to the goal
         heading = torch.where(_norm(heading) > 0.05 * cfg.max_speed, heading, -to_goal)
         cos, sin = heading / _norm(heading).clamp_min(1e-6)  # [B] each
-        sx, sy = geom.slots[:, 0], geom.slots[:, 1]  # [F, N, 1]
-        ex = px - px[:1] - (sx * cos - sy * sin)  # [F, N, B]
+        sx, sy = geom.slots[0, 0], geom.slots[0, 1]  # [N, 1]
+        ex = px - px[:1] - (sx * cos - sy * sin)  # [N, B]
         ey = py - py[:1] - (sx * sin + sy * cos)
-        guided[1:] -= rw.follower_slot * active(torch.addcmul(ex * ex, ey, ey).sqrt_())[1:]
+        slot = torch.addcmul(ex * ex, ey, ey).sqrt_()
+        if err.shape[0] == 2:
+            slot = slot.masked_fill(area, 0.0)
+        guided[1:] -= rw.follower_slot * slot[1:]
     if rw.proximity:  # a ramp toward every collision, before it happens
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]

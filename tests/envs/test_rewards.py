@@ -270,17 +270,18 @@ def test_start_robot_collision_prices_a_contact_inside_the_start_square():
 
 def test_follower_slot_is_the_distance_to_the_slot_turned_to_the_leaders_heading():
     """reward.follower_slot: a follower pays w x its distance to its V slot, the V placed at the leader and turned to
-    its heading (L2 is 0.2 m off its slot, so no follower holds the V's distances and earns R2 instead)."""
+    its heading (L2 is 0.2 m off its slot, so no follower holds the V's distances and earns R2 instead); nothing
+    while the leader is inside the obstacle area (the chain active)."""
     slots = np.array(v_slots())  # outside the obstacle area: the V is active
     team = slots.copy()
     team[3, 1] -= 0.2  # (toward the arena: the wall would stop it)
 
-    def rewards(slot, heading):
+    def rewards(slot, heading, offset=(0.0, 0.0)):
         cfg = EnvConfig(num_obstacles=1)
         cfg.reward = RewardConfig(follower_slot=slot, leader_distance=0.0, follower_error=0.0)
         env = FormationEnv(1, config=cfg, seed=0)
         vel = torch.tensor(heading, dtype=torch.float32).expand(1, 5, 2)
-        env.set_world_state(positions=[team.tolist()], velocities=vel, goal=[(3.2, 3.2)],
+        env.set_world_state(positions=[(team + offset).tolist()], velocities=vel, goal=[(3.2, 3.2)],
                             obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
         td = TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1])
         return env.step(td)["next", "agents", "reward"][0, :, 0].double().numpy()
@@ -293,6 +294,8 @@ def test_follower_slot_is_the_distance_to_the_slot_turned_to_the_leaders_heading
     expected = -2.0 * np.linalg.norm(team - turned_slots, axis=-1)
     expected[0] = 0.0
     np.testing.assert_allclose(rewards(2.0, (0.0, 0.5)) - rewards(0.0, (0.0, 0.5)), expected, atol=1e-4)
+    inside = (0.0, -2.8)  # the leader at (0, 0.2): inside the area
+    np.testing.assert_allclose(rewards(2.0, (0.0, 0.5), inside), rewards(0.0, (0.0, 0.5), inside), atol=1e-6)
 
 
 def test_own_progress_credits_a_follower_with_its_own_move_only():
