@@ -22,7 +22,7 @@ class Geometry:
     own: torch.Tensor  # [F, N, N, 1] 1 where follower i keeps d*_ij to robot j
     pairs: torch.Tensor  # [F, N, N, 1] 1 on unordered constrained pairs i < j (RFSE)
     no_self: torch.Tensor  # [N, N, 1] +inf on the diagonal, 0 elsewhere
-    slots: torch.Tensor  # [F, 2, N, 1] slot positions in the formation frame (leader at the origin facing +x)
+    slots: torch.Tensor  # [2, N, 1] the open-space formation's slots in its frame (leader at the origin facing +x)
 
     @classmethod
     def build(cls, cfg: EnvConfig, device) -> Geometry:
@@ -38,7 +38,7 @@ class Geometry:
             own=stack(formations.constraints),
             pairs=stack(formations.pair_mask),
             no_self=torch.diag(torch.full((n,), float("inf")))[..., None].to(device),
-            slots=torch.stack([formations.slots(f, n).float().T for f in shapes])[..., None].to(device),
+            slots=formations.slots(cfg.formation, n).float().T[..., None].to(device),
         )
 
 
@@ -146,7 +146,7 @@ def step_quantities(
         heading = vel[:, 0]  # [2, B]; from rest (slower than 5% of v_max) the leader's direction to the goal
         heading = torch.where(_norm(heading) > 0.05 * cfg.max_speed, heading, -to_goal)
         cos, sin = heading / _norm(heading).clamp_min(1e-6)  # [B] each
-        sx, sy = geom.slots[0, 0], geom.slots[0, 1]  # [N, 1]
+        sx, sy = geom.slots  # [N, 1] each
         ex = px - px[:1] - (sx * cos - sy * sin)  # [N, B]
         ey = py - py[:1] - (sx * sin + sy * cos)
         slot = torch.addcmul(ex * ex, ey, ey).sqrt_()
