@@ -53,8 +53,6 @@ class RewardConfig:
     follower_slot: float = 0.0  # follower guided += -follower_slot * |p_i - its slot|, the open-space formation's
     #                             slots placed at the leader, turned to its heading (from rest: toward the goal);
     #                             0 while the area formation is active (ours)
-    follower_area: float = 0.0  # follower guided += -follower_area while the follower is inside the obstacle area
-    #                             and the open-space formation is active (a V slot there lies among the obstacles; ours)
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
@@ -200,7 +198,7 @@ class EnvConfig:
             _check_formation(r.area_formation, "reward.area_formation")
         for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
                      "leader_distance", "leader_progress", "follower_error", "follower_progress", "follower_velocity",
-                     "leader_team", "follower_slot", "follower_area", "proximity"):
+                     "leader_team", "follower_slot", "proximity"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")

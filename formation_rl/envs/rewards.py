@@ -153,9 +153,6 @@ def step_quantities(
         if err.shape[0] == 2:
             slot = slot.masked_fill(area, 0.0)
         guided[1:] -= rw.follower_slot * slot[1:]
-    if rw.follower_area:  # inside the obstacle area while the V is active: the V's wide slots sweep the obstacles
-        inside = (px > x0) & (px < x1) & (py > y0) & (py < y1)  # [N, B]
-        guided[1:] -= rw.follower_area * (inside[1:] & ~area).to(guided.dtype)
     if rw.proximity:  # a ramp toward every collision, before it happens
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]

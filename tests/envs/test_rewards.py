@@ -298,24 +298,6 @@ def test_follower_slot_is_the_distance_to_the_slot_turned_to_the_leaders_heading
     np.testing.assert_allclose(rewards(2.0, (0.0, 0.5), inside), rewards(0.0, (0.0, 0.5), inside), atol=1e-6)
 
 
-def test_follower_area_prices_a_follower_inside_the_obstacle_area_while_the_v_is_active():
-    """reward.follower_area: a follower pays w a step while it is inside the obstacle area and the leader is not (the
-    V active); nothing once the leader is inside (the chain active), nothing for the leader."""
-    def rewards(w, team):
-        cfg = EnvConfig(num_obstacles=1)
-        cfg.reward = RewardConfig(follower_area=w)
-        return rewards_at(FormationEnv(1, config=cfg, seed=0), team)[0]
-
-    edge = [[0.0, -2.3], [-1.0, -1.5], [-1.0, -3.0], [-2.0, -1.0], [-2.0, 3.5]]  # L1, L2 inside; R1, R2 outside
-    np.testing.assert_allclose(rewards(2.0, edge) - rewards(0.0, edge), [0.0, -2.0, 0.0, -2.0, 0.0], atol=1e-4)
-    leader_in = [[0.0, -1.8]] + edge[1:]  # the leader inside: the chain is active
-    np.testing.assert_allclose(rewards(2.0, leader_in), rewards(0.0, leader_in), atol=1e-6)
-    with pytest.raises(ValueError, match=r"env.reward.follower_area = nan"):
-        bad = EnvConfig()
-        bad.reward = RewardConfig(follower_area=float("nan"))
-        bad.validate()
-
-
 def test_own_progress_credits_a_follower_with_its_own_move_only():
     """reward.own_progress: follower i's progress is e_i(its previous position, the others now) - e_i(now):
     a follower that stands still earns nothing when the others move, whichever way they go."""
