@@ -12,18 +12,24 @@ from formation_rl.evaluation.evaluate import evaluate_policy
 from formation_rl.training.config import TrainConfig
 
 
-def per_step(rollout, goal_radius):
-    pos = rollout["next", "state", "positions"]  # [B,T,N,2]
-    c = rollout["state", "obstacle_centers"]  # [B,T,M,2]
-    rad = rollout["state", "obstacle_radii"]  # [B,T,M]
-    gap = (pos[:, :, :, None] - c[:, :, None]).norm(dim=-1) - rad[:, :, None] - 0.1  # [B,T,N,M]
-    hit = (gap < 0.1).any(-1)  # [B,T,N]
-    return {"hit": hit.float(), "area": rollout["next", "in_obstacle_area"].float().reshape(hit.shape[:2])}
+def obstacle_hits(cfg):
+    """Per robot and step, an obstacle contact (the env reports only whether any robot has one)."""
+    def metrics(rollout, goal_radius):
+        pos = rollout["next", "state", "positions"]  # [B,T,N,2]
+        c = rollout["state", "obstacle_centers"]  # [B,T,M,2]
+        rad = rollout["state", "obstacle_radii"]  # [B,T,M]
+        gap = (pos[:, :, :, None] - c[:, :, None]).norm(dim=-1) - rad[:, :, None] - cfg.robot_radius  # [B,T,N,M]
+        hit = (gap < cfg.obstacle_collision_margin).any(-1)  # [B,T,N]
+        return {"hit": hit.float(), "area": rollout["next", "in_obstacle_area"].float().reshape(hit.shape[:2])}
+
+    return metrics
+
 
 torch.set_num_threads(1)
 for ckpt in sys.argv[1:]:
     policy = load_policy(ckpt)
-    out = evaluate_policy(policy, policy.env_config, 200, seed=TrainConfig.eval_seed, progress=False, metrics=per_step)
+    out = evaluate_policy(policy, policy.env_config, 200, seed=TrainConfig.eval_seed, progress=False,
+                          metrics=obstacle_hits(policy.env_config))
     hit, area = out["hit"] > 0, out["area"] > 0
     lead, fol = hit[..., 0].any(1), hit[..., 1:].any(-1).any(1)
     fol_steps = hit[..., 1:].any(-1)

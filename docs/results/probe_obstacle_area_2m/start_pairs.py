@@ -26,7 +26,8 @@ for ckpt in sys.argv[1:]:
     d = (pos[:, :, :, None] - pos[:, :, None]).norm(dim=-1)  # [B,T+1,N,N]
     iu = torch.triu_indices(N, N, 1)
     dp = d[:, :, iu[0], iu[1]]  # [B,T+1,P]
-    contact = dp[:, 1:] < 0.3  # steps 1..T
+    cfg = policy.env_config
+    contact = dp[:, 1:] < 2 * cfg.robot_radius + cfg.robot_collision_margin  # steps 1..T
     first = torch.where(contact.any(-1).any(-1), contact.any(-1).float().argmax(-1), torch.full((B,), -1))
     early = (first >= 0) & (first < 6)
     print(f"\n{ckpt}: episodes with a contact {(first >= 0).float().mean():.2f}, "
