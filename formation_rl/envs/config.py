@@ -53,6 +53,9 @@ class RewardConfig:
     follower_slot: float = 0.0  # follower guided += -follower_slot * |p_i - its slot|, the open-space formation's
     #                             slots placed at the leader, turned to its heading (from rest: toward the goal);
     #                             0 while the area formation is active (ours)
+    slot_frame: str = "heading"  # how those slots turn: "heading", with the leader's heading as above; "course",
+    #                              along the course from the start square's centre to the goal, a frame that does
+    #                              not turn during the episode (ours)
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
@@ -202,6 +205,7 @@ class EnvConfig:
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")
+        _check(r.slot_frame, "reward.slot_frame", lambda v: v in ("heading", "course"), "heading or course")
         _check(r.own_progress, "reward.own_progress", lambda v: isinstance(v, bool), "true or false")
         _check(r.leader_robot_collision, "reward.leader_robot_collision", lambda v: _finite(v) and 0 <= v <= 1,
                "a number in [0, 1]")

@@ -143,8 +143,11 @@ def step_quantities(
         guided[0] -= rw.leader_team * follower_err[1:].mean(0)
     if rw.follower_slot:  # distance to its open-space slot, the formation frame turned to the leader's heading;
         # none inside the obstacle area, where slots turned with the leader would swing through the obstacles it rounds
-        heading = vel[:, 0]  # [2, B]; from rest (slower than 5% of v_max) the leader's direction to the goal
-        heading = torch.where(_norm(heading) > 0.05 * cfg.max_speed, heading, -to_goal)
+        if rw.slot_frame == "course":  # from the start square's centre to the goal: the frame does not turn
+            heading = goal - (cfg.start_low + cfg.start_high) / 2  # [2, B]
+        else:  # the leader's heading; from rest (slower than 5% of v_max) its direction to the goal
+            heading = vel[:, 0]  # [2, B]
+            heading = torch.where(_norm(heading) > 0.05 * cfg.max_speed, heading, -to_goal)
         cos, sin = heading / _norm(heading).clamp_min(1e-6)  # [B] each
         sx, sy = geom.slots  # [N, 1] each
         ex = px - px[:1] - (sx * cos - sy * sin)  # [N, B]

@@ -7,6 +7,7 @@ checkpointing on the way. Everything a resume needs is one :meth:`Trainer.state_
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import random
 import time
@@ -153,6 +154,8 @@ class Trainer:
                 # one gradient step (every robot at once) per update_every collected frames
                 credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
                 losses = []
+                if a.lr_end != 1.0 and credit >= a.update_every:
+                    self._anneal_lr()
                 while credit >= a.update_every:
                     credit -= a.update_every
                     try:
@@ -208,12 +211,21 @@ class Trainer:
             out["weight_mean"] = batch.get(WEIGHT_KEY).mean()
         return out
 
+    def _anneal_lr(self) -> None:
+        """Both learning rates at ``1 - (1 - lr_end) * frames / total_frames`` of their configured values (a
+        function of the frames alone, so a resumed run continues the same schedule)."""
+        a = self.cfg.algo
+        share = 1.0 - (1.0 - a.lr_end) * min(1.0, self.frames / self.cfg.total_frames)
+        for optim, lr in ((self.algo.actor_optim, a.lr_actor), (self.algo.critic_optim, a.lr_critic)):
+            for group in optim.param_groups:
+                group["lr"] = lr * share
+
     # ------------------------------------------------------------------ evaluation
     @torch.no_grad()
     def evaluate(self) -> dict[str, float]:
         """Deterministic actors on the fixed validation set (``eval_episodes`` copies, ``eval_seed``)."""
         self.eval_env.set_seed(self.cfg.eval_seed)
-        with self.timings("evaluation"), set_exploration_type(ExplorationType.DETERMINISTIC):
+        with self.timings("evaluation"), set_exploration_type(ExplorationType.DETERMINISTIC), self.deployed():
             rollout = self.eval_env.rollout(self.cfg.env.max_steps, self.actor, break_when_any_done=False)
             metrics = summarize(episode_metrics(rollout, self.cfg.env.goal_radius))
         if self.logger is not None:
@@ -247,6 +259,7 @@ class Trainer:
         log("perf/frames_per_s", self._session_frames() / elapsed, step=self.frames)
         log("perf/grad_steps_per_s", (self.algo.critic_steps - steps0) / elapsed, step=self.frames)
         log("train/exploration_sigma", self.noise.sigma.item(), step=self.frames)
+        log("train/lr_critic", self.algo.critic_optim.param_groups[0]["lr"], step=self.frames)
         for k, v in self.timings.split().items():
             log(f"perf/share_{k}", v, step=self.frames)
         return latest
@@ -328,10 +341,20 @@ class Trainer:
             raise ValueError(f"{err} ({path})") from None
 
     def policy_state(self) -> dict:
-        """What :func:`formation_rl.load_policy` reads: the actors, their world and network config."""
+        """What :func:`formation_rl.load_policy` reads: the actors (``algo.deploy``'s), their world and network
+        config."""
+        with self.deployed():
+            actor = {k: v.detach().clone() for k, v in self.actor.state_dict().items()}
         return {"format": FORMAT, "version": formation_rl.__version__, "algo": self.cfg.algo.name,
                 "env": dataclasses.asdict(self.cfg.env), "model": dataclasses.asdict(self.cfg.model),
-                "actor": self.actor.state_dict()}
+                "actor": actor}
+
+    def deployed(self):
+        """Inside it ``self.actor`` holds the deployed parameters: its own, or with ``algo.deploy=target`` the
+        loss's target actors (their Polyak average), swapped in and back by tensordict's ``to_module``."""
+        if self.cfg.algo.deploy == "target":
+            return self.algo.loss.target_actor_network_params.to_module(self.actor)
+        return contextlib.nullcontext()
 
     @staticmethod
     def _seed_everything(seed: int) -> None:

@@ -298,6 +298,30 @@ def test_follower_slot_is_the_distance_to_the_slot_turned_to_the_leaders_heading
     np.testing.assert_allclose(rewards(2.0, (0.0, 0.5), inside), rewards(0.0, (0.0, 0.5), inside), atol=1e-6)
 
 
+def test_follower_slot_in_the_course_frame_does_not_turn_with_the_leader():
+    """reward.slot_frame=course: the V's slots point from the start square's centre (-3.3, -3.3) to the goal
+    (3.2, 3.2), 45 degrees, whatever the leader's heading; a team laid out in that frame pays nothing."""
+    slots = np.array(v_slots())
+    offsets = slots - slots[0]
+    c = s = np.sqrt(0.5)
+    team = slots[0] + offsets @ np.array([[c, s], [-s, c]])  # offsets turned by +45 degrees
+
+    def rewards(slot, heading):
+        cfg = EnvConfig(num_obstacles=1)
+        cfg.reward = RewardConfig(follower_slot=slot, slot_frame="course", leader_distance=0.0, follower_error=0.0)
+        env = FormationEnv(1, config=cfg, seed=0)
+        vel = torch.tensor(heading, dtype=torch.float32).expand(1, 5, 2)
+        env.set_world_state(positions=[team.tolist()], velocities=vel, goal=[(3.2, 3.2)],
+                            obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
+        td = TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1])
+        return env.step(td)["next", "agents", "reward"][0, :, 0].double().numpy()
+
+    for heading in ((0.5, 0.0), (0.0, 0.5), (0.0, 0.0)):
+        np.testing.assert_allclose(rewards(2.0, heading) - rewards(0.0, heading), 0.0, atol=1e-4)
+    with pytest.raises(ValueError, match=r"env.reward.slot_frame = 'north'"):
+        EnvConfig(reward=RewardConfig(slot_frame="north")).validate()
+
+
 def test_own_progress_credits_a_follower_with_its_own_move_only():
     """reward.own_progress: follower i's progress is e_i(its previous position, the others now) - e_i(now):
     a follower that stands still earns nothing when the others move, whichever way they go."""

@@ -43,6 +43,44 @@ def test_tiny_run_logs_checkpoints_and_evaluates(tmp_path, algo):
 
 
 
+def test_lr_end_lowers_both_learning_rates_linearly_with_the_frames(tmp_path):
+    cfg = tiny("per_matd3")
+    cfg.algo.lr_end, cfg.algo.lr_actor, cfg.algo.lr_critic = 0.1, 1e-3, 2e-3
+    trainer = Trainer(cfg, tmp_path)
+    trainer.train()
+    share = 0.1  # set before the last batch's steps, counted with that batch: 2,400 of 2,400 frames
+    assert trainer.algo.actor_optim.param_groups[0]["lr"] == pytest.approx(1e-3 * share)
+    assert trainer.algo.critic_optim.param_groups[0]["lr"] == pytest.approx(2e-3 * share)
+    lrs = [v for _, v in scalars(tmp_path)["train/lr_critic"]]
+    assert lrs[0] > lrs[-1] and all(a >= b for a, b in zip(lrs, lrs[1:], strict=False))
+
+
+def test_deploy_target_saves_and_evaluates_the_target_actors_and_trains_the_actors(tmp_path):
+    cfg = tiny("per_matd3")
+    cfg.algo.deploy = "target"
+    trainer = Trainer(cfg, tmp_path)
+    trainer.train()
+    saved = torch.load(tmp_path / POLICY, weights_only=False)["actor"]
+    target = trainer.algo.loss.target_actor_network_params
+    own = trainer.algo.loss.actor_network_params
+    for key, value in saved.items():
+        assert torch.equal(value, target.get(tuple(key.split("."))))
+        assert not torch.equal(value, own.get(tuple(key.split("."))))  # the trained actors differ from them ...
+    assert trainer.actor.module[0].weights[0] is own.get(("module", "0", "weights", "0"))  # ... and are back
+    policy = formation_rl.load_policy(tmp_path)
+    assert trainer.evaluate() == pytest.approx(_validation(trainer, policy.module))  # eval/* scores the target
+
+
+def _validation(trainer, module):
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    from formation_rl.envs.metrics import episode_metrics, summarize
+    trainer.eval_env.set_seed(trainer.cfg.eval_seed)
+    with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
+        rollout = trainer.eval_env.rollout(trainer.cfg.env.max_steps, module, break_when_any_done=False)
+    return summarize(episode_metrics(rollout, trainer.cfg.env.goal_radius))
+
+
 def test_learns_to_reach_the_goal(tmp_path):
     """Learning check: two robots, no obstacles; the leader learns to approach the goal (random: ~9 m)."""
     cfg = TrainConfig(env=EnvConfig(num_robots=2, num_obstacles=0), total_frames=24000, num_envs=32,
