@@ -126,7 +126,6 @@ BAD_INPUT = [  # (entry point, arguments, the one line it must print)
     ("train", ["algo.lr_actor=-1"], "algo.lr_actor = -1.0 is invalid: must be > 0"),
     ("train", ["algo.tau=-0.1"], "algo.tau = -0.1 is invalid: must be in [0, 1]"),
     ("train", ["algo.deploy=ema"], "algo.deploy = 'ema' is invalid: must be actor or target"),
-    ("train", ["algo.lr_end=2"], "algo.lr_end = 2.0 is invalid: must be in [0, 1]"),
     ("train", ["algo.alpha=1.5"], "algo.alpha = 1.5 is invalid: must be in [0, 1]"),
     ("train", ["algo.beta=-0.5"], "algo.beta = -0.5 is invalid: must be in [0, 1]"),
     ("train", ["eval_episodes=0"], "eval_episodes = 0 is invalid: must be an integer >= 1"),

@@ -20,8 +20,6 @@ class AlgoConfig:
     priority_eps: float = 1e-6  # p = (max |delta| + eps)^alpha (choice)
     lr_actor: float = 1e-3  # (paper)
     lr_critic: float = 1e-3  # (paper)
-    lr_end: float = 1.0  # both learning rates fall linearly with the frames, to this share of theirs at total_frames
-    #                      (choice; 1: constant, the paper's)
     deploy: str = "actor"  # the actors that are evaluated, selected and saved as the policy: "actor", the trained
     #                        ones (the paper's), or "target", their Polyak average that TD3/DDPG keep for the TD
     #                        targets (tau per actor step; choice)

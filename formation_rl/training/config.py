@@ -95,7 +95,6 @@ def validate(cfg: TrainConfig) -> None:
     check(a.exploration_sigma >= a.exploration_sigma_end >= 0, "algo.exploration_sigma", a.exploration_sigma,
           f">= exploration_sigma_end ({a.exploration_sigma_end}) >= 0")
     check(a.deploy in ("actor", "target"), "algo.deploy", a.deploy, "actor or target")
-    check(0 <= a.lr_end <= 1, "algo.lr_end", a.lr_end, "in [0, 1]")
     check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")
     check(0 <= a.exploration_eps <= 1, "algo.exploration_eps", a.exploration_eps, "in [0, 1]")
     check(0 <= a.her <= 1, "algo.her", a.her, "in [0, 1]")

@@ -154,8 +154,6 @@ class Trainer:
                 # one gradient step (every robot at once) per update_every collected frames
                 credit = credit + data.numel() if len(self.buffer) >= learn_from else 0
                 losses = []
-                if a.lr_end != 1.0 and credit >= a.update_every:
-                    self._anneal_lr()
                 while credit >= a.update_every:
                     credit -= a.update_every
                     try:
@@ -211,15 +209,6 @@ class Trainer:
             out["weight_mean"] = batch.get(WEIGHT_KEY).mean()
         return out
 
-    def _anneal_lr(self) -> None:
-        """Both learning rates at ``1 - (1 - lr_end) * frames / total_frames`` of their configured values (a
-        function of the frames alone, so a resumed run continues the same schedule)."""
-        a = self.cfg.algo
-        share = 1.0 - (1.0 - a.lr_end) * min(1.0, self.frames / self.cfg.total_frames)
-        for optim, lr in ((self.algo.actor_optim, a.lr_actor), (self.algo.critic_optim, a.lr_critic)):
-            for group in optim.param_groups:
-                group["lr"] = lr * share
-
     # ------------------------------------------------------------------ evaluation
     @torch.no_grad()
     def evaluate(self) -> dict[str, float]:
@@ -259,7 +248,6 @@ class Trainer:
         log("perf/frames_per_s", self._session_frames() / elapsed, step=self.frames)
         log("perf/grad_steps_per_s", (self.algo.critic_steps - steps0) / elapsed, step=self.frames)
         log("train/exploration_sigma", self.noise.sigma.item(), step=self.frames)
-        log("train/lr_critic", self.algo.critic_optim.param_groups[0]["lr"], step=self.frames)
         for k, v in self.timings.split().items():
             log(f"perf/share_{k}", v, step=self.frames)
         return latest

@@ -43,18 +43,6 @@ def test_tiny_run_logs_checkpoints_and_evaluates(tmp_path, algo):
 
 
 
-def test_lr_end_lowers_both_learning_rates_linearly_with_the_frames(tmp_path):
-    cfg = tiny("per_matd3")
-    cfg.algo.lr_end, cfg.algo.lr_actor, cfg.algo.lr_critic = 0.1, 1e-3, 2e-3
-    trainer = Trainer(cfg, tmp_path)
-    trainer.train()
-    share = 0.1  # set before the last batch's steps, counted with that batch: 2,400 of 2,400 frames
-    assert trainer.algo.actor_optim.param_groups[0]["lr"] == pytest.approx(1e-3 * share)
-    assert trainer.algo.critic_optim.param_groups[0]["lr"] == pytest.approx(2e-3 * share)
-    lrs = [v for _, v in scalars(tmp_path)["train/lr_critic"]]
-    assert lrs[0] > lrs[-1] and all(a >= b for a, b in zip(lrs, lrs[1:], strict=False))
-
-
 def test_deploy_target_saves_and_evaluates_the_target_actors_and_trains_the_actors(tmp_path):
     cfg = tiny("per_matd3")
     cfg.algo.deploy = "target"
