@@ -40,12 +40,26 @@ def bf16_supported(device: torch.device | str) -> bool:
 def bf16_speedup(device: str) -> float:
     """How many times faster ``device`` runs a bf16 GEMM than an fp32 one at the critics' hidden-layer shape
     (``[10, 1024, 128] @ [10, 128, 128]``: two twins x five robots, batch 1024), median of 5 timed blocks on
-    the current threads, under half a second once per process; 0.0 where bf16 is not native. Measured, not assumed:
+    the current threads (one on a CPU, below), under half a second once per process; 0.0 where bf16 is not native. Measured, not assumed:
     a CPU that reports AVX512-BF16 without AMX (an Intel Xeon here, 2026-12-04) ran this GEMM at 0.47-0.68x
-    fp32's speed and the whole step at 1.26x fp32's time (benchmarks/README.md)."""
+    fp32's speed and the whole step at 1.26x fp32's time (benchmarks/README.md). On a CPU it times one thread:
+    the ratio is the core's, and on all threads beside another busy process (an evaluation, a second run) the
+    threads' waits swamped it (an AMX CPU measured 1.0-1.2x there against 4.3x alone, so `precision=auto` took
+    fp32; one thread: 4.6-7.9x, 2026-12-05)."""
     dev = torch.device(device)
     if not bf16_supported(dev):
         return 0.0
+    if dev.type == "cpu":
+        threads = torch.get_num_threads()
+        torch.set_num_threads(1)
+        try:
+            return _gemm_speedup(dev)
+        finally:
+            torch.set_num_threads(threads)
+    return _gemm_speedup(dev)
+
+
+def _gemm_speedup(dev: torch.device) -> float:
     sync = torch.cuda.synchronize if dev.type == "cuda" else (lambda: None)
 
     def seconds(dtype: torch.dtype) -> float:

@@ -240,8 +240,21 @@ def test_auto_precision_is_bf16_targets_where_bf16_runs_faster_else_fp32(monkeyp
 
 
 def test_bf16_speedup_is_zero_without_native_bf16_and_a_positive_ratio_with_it(monkeypatch):
-    """bf16_speedup measures where bf16 is native and skips the timing (0.0) where it is not."""
+    """bf16_speedup measures where bf16 is native and skips the timing (0.0) where it is not; on a CPU it times one
+    thread and gives the caller's thread count back."""
     from formation_rl.models import networks
+
+    seen = []
+    monkeypatch.setattr(networks, "_gemm_speedup", lambda dev: seen.append(torch.get_num_threads()) or 2.0)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        networks.bf16_speedup.cache_clear()
+        monkeypatch.setattr(networks, "bf16_supported", lambda device: True)
+        assert networks.bf16_speedup("cpu") == 2.0 and seen == [1] and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(threads)
+    monkeypatch.undo()
 
     networks.bf16_speedup.cache_clear()
     monkeypatch.setattr(networks, "bf16_supported", lambda device: False)
