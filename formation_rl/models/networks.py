@@ -39,12 +39,12 @@ def bf16_supported(device: torch.device | str) -> bool:
 @functools.cache
 def bf16_speedup(device: str) -> float:
     """How many times faster ``device`` runs a bf16 GEMM than an fp32 one at the critics' hidden-layer shape
-    (``[10, 1024, 128] @ [10, 128, 128]``: two twins x five robots, batch 1024), median of 5 timed blocks on
-    the current threads (one on a CPU, below), under half a second once per process; 0.0 where bf16 is not native. Measured, not assumed:
-    a CPU that reports AVX512-BF16 without AMX (an Intel Xeon here, 2026-12-04) ran this GEMM at 0.47-0.68x
-    fp32's speed and the whole step at 1.26x fp32's time (benchmarks/README.md). On a CPU it times one thread:
-    the ratio is the core's, and on all threads beside another busy process (an evaluation, a second run) the
-    threads' waits swamped it (an AMX CPU measured 1.0-1.2x there against 4.3x alone, so `precision=auto` took
+    (``[10, 1024, 128] @ [10, 128, 128]``: two twins x five robots, batch 1024), median of 5 timed blocks,
+    under half a second once per process; 0.0 where bf16 is not native. Measured, not assumed: a CPU that reports
+    AVX512-BF16 without AMX (an Intel Xeon here, 2026-12-04) ran this GEMM at 0.47-0.68x fp32's speed and the
+    whole step at 1.26x fp32's time (benchmarks/README.md). On a CPU it times one thread: the ratio is the
+    core's, and on all threads beside another busy process (an evaluation, a second run) the threads' waits
+    swamped it (an AMX CPU measured 1.0-1.2x there against 4.3x alone, so `precision=auto` took
     fp32; one thread: 4.6-7.9x, 2026-12-05)."""
     dev = torch.device(device)
     if not bf16_supported(dev):
