@@ -76,10 +76,10 @@ def test_refused_calls_leave_no_run_directory(module, args, tmp_path):
 
 @pytest.mark.slow
 def test_make_train_learning_check(tmp_path):
-    """`make train` (recipe=hindsight, ~15-19 min): its success floor on the 200 validation episodes. Four seeds gave
-    28.0%, 3.0%, 21.5% and 15.0% success, the leader on the goal in 81%, 89%, 81% and 70.5% (docs/RESULTS.md, "The
-    others' velocities and a velocity term in the recipe"; bf16_targets); seed 0 in fp32, where `precision=auto`
-    takes it on an Intel Xeon: 2.0% and 66%; with the slot term (twenty-first session), seed 0 fp32: 5.0% and 39%."""
+    """`make train` (recipe=hindsight, ~11-19 min): its success floor on the 500 validation episodes. With the
+    proximity ramp and the target actors (twenty-fourth session, bf16_targets), seeds 0/1/2 gave 18.6%, 1.0% and 14.0%
+    success on validation (docs/RESULTS.md, "Target actors, a proximity ramp ..."); before them, seed 0 in fp32, where
+    `precision=auto` takes it on an Intel Xeon: 5.0% success, the leader on the goal in 39%."""
     from hydra import compose, initialize_config_dir
 
     import formation_rl.apps.train  # noqa: F401  (registers the schema)
@@ -132,7 +132,8 @@ def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing(
 def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
     """recipe=hindsight (`make train`): the paper's hybrid reward and PER-MATD3 with relative positions and the
     others' velocities, R5 = -25 paid by the followers, the formation term doubled, the followers' velocity term,
-    the slot term, hindsight goals, 3-step targets, bf16 where faster; 2M frames."""
+    the slot term, the proximity ramp, hindsight goals, 3-step targets, the target actors deployed, bf16 where faster;
+    2M frames."""
     from hydra import compose, initialize_config_dir
 
     from formation_rl.training.config import register, validate
@@ -145,10 +146,11 @@ def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
     validate(ours)
     rw, base = ours.env.reward, paper.env.reward
     assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error, rw.follower_velocity,
-            rw.follower_slot) == (-25, 0, 2, 1, 2)
+            rw.follower_slot, rw.proximity, rw.proximity_range) == (-25, 0, 2, 1, 2, 1, 0.1)
     assert dataclasses.replace(rw, robot_collision=base.robot_collision, leader_robot_collision=1.0, follower_error=1.0,
-                               follower_velocity=0.0, follower_slot=0.0) == base  # every other reward field: paper's
+                               follower_velocity=0.0, follower_slot=0.0, proximity=0.0,
+                               proximity_range=base.proximity_range) == base  # every other reward field: paper's
     assert ours.env.relative_positions and ours.env.observe_velocities
     assert ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
-    assert dataclasses.replace(ours.algo, her=0.0, n_steps=1) == paper.algo  # PER-MATD3: the paper's settings, ratio
+    assert dataclasses.replace(ours.algo, her=0.0, n_steps=1, deploy="actor") == paper.algo  # PER-MATD3: the paper's settings, ratio
     assert ours.model == paper.model and ours.total_frames == 2_000_000
