@@ -125,10 +125,9 @@ def step_quantities(
     positive_value = bonus.expand(n, b).clone()
     positive_value[0] = rw.goal
     r5, robot_event = rw.robot_collision, robot_hit  # R5, and the contacts whose event replaces the guided term
-    if rw.start_robot_collision is not None or rw.start_follower_error is not None:
-        lo, hi = cfg.start_low, cfg.start_high
-        start = (px >= lo) & (px <= hi) & (py >= lo) & (py <= hi)  # [N, B], each robot inside the start square
     if rw.start_robot_collision is not None:  # a robot inside the start square pays its own price for a contact
+        lo, hi = cfg.start_low, cfg.start_high
+        start = (px >= lo) & (px <= hi) & (py >= lo) & (py <= hi)  # [N, B]
         r5 = torch.full_like(px, rw.robot_collision).masked_fill_(start, rw.start_robot_collision)
     if rw.leader_robot_collision != 1.0:  # the leader's share of R5; at 0 its contacts are no event for it
         if not torch.is_tensor(r5):
@@ -136,10 +135,7 @@ def step_quantities(
         r5[0] *= rw.leader_robot_collision
         robot_event = robot_hit & (r5 != 0)
     sparse = positive * positive_value + obstacle_hit * rw.obstacle_collision + robot_hit * r5
-    if rw.start_follower_error is None:
-        guided = follower_err * -rw.follower_error
-    else:  # a follower inside the start square weighs its formation term apart
-        guided = follower_err * torch.full_like(px, -rw.follower_error).masked_fill_(start, -rw.start_follower_error)
+    guided = follower_err * -rw.follower_error
     guided[0] = goal_dist * -rw.leader_distance
     if rw.follower_velocity:  # |v_i - v_lea| / v_max: a rigid translation keeps every distance
         guided[1:] -= _norm(vel[:, 1:] - vel[:, :1]) * (rw.follower_velocity / cfg.max_speed)

@@ -268,26 +268,6 @@ def test_start_robot_collision_prices_a_contact_inside_the_start_square():
         bad.validate()
 
 
-def test_start_follower_error_weighs_the_formation_term_inside_the_start_square():
-    """reward.start_follower_error: a follower inside the start square pays its formation term at that weight, the
-    followers outside at follower_error; null: follower_error everywhere."""
-    cfg = EnvConfig(num_obstacles=1)
-    positions = [[-2.0, -2.0], [-3.5, -3.5], [0.0, 2.0], [2.0, 0.0], [2.0, 2.0]]  # L1 alone in the start square
-    cfg.reward = RewardConfig(follower_error=4.0)
-    dear, _ = rewards_at(FormationEnv(1, config=cfg, seed=0), positions)
-    cfg.reward = RewardConfig(follower_error=2.0)
-    cheap, _ = rewards_at(FormationEnv(1, config=cfg, seed=0), positions)
-    cfg.reward = RewardConfig(follower_error=4.0, start_follower_error=2.0)
-    mixed, _ = rewards_at(FormationEnv(1, config=cfg, seed=0), positions)
-    assert dear[1] == pytest.approx(2 * cheap[1]) and dear[1] < -1  # guided: -w e_i, e_i well above 0
-    assert mixed[1] == pytest.approx(cheap[1]) and mixed[2:] == pytest.approx(dear[2:])
-    assert mixed[0] == pytest.approx(dear[0])  # the leader's term does not change
-    with pytest.raises(ValueError, match=r"env.reward.start_follower_error = inf"):
-        bad = EnvConfig()
-        bad.reward = RewardConfig(start_follower_error=float("inf"))
-        bad.validate()
-
-
 def test_follower_slot_is_the_distance_to_the_slot_turned_to_the_leaders_heading():
     """reward.follower_slot: a follower pays w x its distance to its V slot, the V placed at the leader and turned to
     its heading (L2 is 0.2 m off its slot, so no follower holds the V's distances and earns R2 instead); nothing
