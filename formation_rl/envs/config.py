@@ -68,9 +68,6 @@ class RewardConfig:
     #                                      it scales the robot part of the leader's proximity ramp too
     start_robot_collision: float | None = None  # R5 for a robot's contact while it is inside the start square, where
     #                                             the team assembles from discs 0.3 m apart (ours); None: R5 everywhere
-    start_follower_slot: float | None = None  # the follower_slot weight while that follower is inside the start square
-    #                                           (ours): the slot behind a leader at rest pulls a follower ahead of it
-    #                                           back through its path; None: follower_slot everywhere
 
 
 @dataclass
@@ -214,8 +211,6 @@ class EnvConfig:
                "a number in [0, 1]")
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")
         _check(r.start_robot_collision, "reward.start_robot_collision", lambda v: v is None or _finite(v),
-               "a finite number or null")
-        _check(r.start_follower_slot, "reward.start_follower_slot", lambda v: v is None or _finite(v),
                "a finite number or null")
 
 

@@ -125,10 +125,9 @@ def step_quantities(
     positive_value = bonus.expand(n, b).clone()
     positive_value[0] = rw.goal
     r5, robot_event = rw.robot_collision, robot_hit  # R5, and the contacts whose event replaces the guided term
-    if rw.start_robot_collision is not None or rw.start_follower_slot is not None:
-        lo, hi = cfg.start_low, cfg.start_high
-        start = (px >= lo) & (px <= hi) & (py >= lo) & (py <= hi)  # [N, B], each robot inside the start square
     if rw.start_robot_collision is not None:  # a robot inside the start square pays its own price for a contact
+        lo, hi = cfg.start_low, cfg.start_high
+        start = (px >= lo) & (px <= hi) & (py >= lo) & (py <= hi)  # [N, B]
         r5 = torch.full_like(px, rw.robot_collision).masked_fill_(start, rw.start_robot_collision)
     if rw.leader_robot_collision != 1.0:  # the leader's share of R5; at 0 its contacts are no event for it
         if not torch.is_tensor(r5):
@@ -156,11 +155,7 @@ def step_quantities(
         slot = torch.addcmul(ex * ex, ey, ey).sqrt_()
         if err.shape[0] == 2:
             slot = slot.masked_fill(area, 0.0)
-        if rw.start_follower_slot is None:
-            guided[1:] -= rw.follower_slot * slot[1:]
-        else:  # a follower inside the start square weighs its slot term apart
-            weight = torch.full_like(px, rw.follower_slot).masked_fill_(start, rw.start_follower_slot)
-            guided[1:] -= (weight * slot)[1:]
+        guided[1:] -= rw.follower_slot * slot[1:]
     if rw.proximity:  # a ramp toward every collision, before it happens
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]

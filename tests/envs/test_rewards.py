@@ -268,26 +268,6 @@ def test_start_robot_collision_prices_a_contact_inside_the_start_square():
         bad.validate()
 
 
-def test_start_follower_slot_weighs_the_slot_term_inside_the_start_square():
-    """reward.start_follower_slot: a follower inside the start square pays its slot term at that weight, the
-    followers outside at follower_slot; the leader's reward does not change."""
-    cfg = EnvConfig(num_obstacles=1)
-    positions = [[-2.0, -2.0], [-3.5, -3.5], [0.0, 2.0], [2.0, 0.0], [2.0, 2.0]]  # L1 alone in the start square
-
-    def rewards(**reward):
-        cfg.reward = RewardConfig(follower_error=0.0, **reward)
-        return rewards_at(FormationEnv(1, config=cfg, seed=0), positions)[0]
-
-    off, dear, mixed = rewards(), rewards(follower_slot=2.0), rewards(follower_slot=2.0, start_follower_slot=0.0)
-    assert dear[1] < off[1] - 1 and (dear[2:] < off[2:] - 1).all()  # every follower is far from its slot
-    assert mixed[1] == pytest.approx(off[1]) and mixed[2:] == pytest.approx(dear[2:])
-    assert mixed[0] == pytest.approx(dear[0]) == pytest.approx(off[0])
-    with pytest.raises(ValueError, match=r"env.reward.start_follower_slot = inf"):
-        bad = EnvConfig()
-        bad.reward = RewardConfig(start_follower_slot=float("inf"))
-        bad.validate()
-
-
 def test_follower_slot_is_the_distance_to_the_slot_turned_to_the_leaders_heading():
     """reward.follower_slot: a follower pays w x its distance to its V slot, the V placed at the leader and turned to
     its heading (L2 is 0.2 m off its slot, so no follower holds the V's distances and earns R2 instead); nothing
