@@ -152,5 +152,6 @@ def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
                                proximity_range=base.proximity_range) == base  # every other reward field: paper's
     assert ours.env.relative_positions and ours.env.observe_velocities
     assert ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
-    assert dataclasses.replace(ours.algo, her=0.0, n_steps=1, deploy="actor") == paper.algo  # PER-MATD3: the paper's settings, ratio
+    assert ours.algo.deploy == "target" and (ours.eval_interval, ours.eval_episodes) == (100_000, 500)
+    assert dataclasses.replace(ours.algo, her=0.0, n_steps=1, deploy="actor") == paper.algo  # the paper's settings
     assert ours.model == paper.model and ours.total_frames == 2_000_000
