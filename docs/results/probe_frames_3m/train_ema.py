@@ -3,7 +3,7 @@ of the trained actors' parameters (per actor step, decays from argv EMA=0.997,0.
 evaluation of the deployed actors it evaluates the trained actors and each average on the same episodes
 (RUN_DIR/actor_evals.jsonl) and keeps each average's best validation policy (RUN_DIR/ema_<decay>_best/policy.pt,
 success then RFSE, the trainer's rule) and its final one (ema_<decay>_final/policy.pt), loadable as policy files."""
-import json, sys
+import contextlib, json, sys
 from pathlib import Path
 import torch
 from hydra import compose, initialize_config_dir
@@ -49,15 +49,13 @@ def state_of(ema):
         return {k: v.detach().clone() for k, v in trainer.actor.state_dict().items()}
 
 @torch.no_grad()
-def run_eval(ctx=None):
+def run_eval(ema=None):
+    """The validation episodes with the trained actors, or with ``ema``'s parameters swapped in."""
     t = trainer
     t.eval_env.set_seed(t.cfg.eval_seed)
-    with set_exploration_type(ExplorationType.DETERMINISTIC):
-        if ctx is None:
-            ro = t.eval_env.rollout(t.cfg.env.max_steps, t.actor, break_when_any_done=False)
-        else:
-            with ctx.to_module(t.actor):
-                ro = t.eval_env.rollout(t.cfg.env.max_steps, t.actor, break_when_any_done=False)
+    swap = contextlib.nullcontext() if ema is None else ema.to_module(t.actor)
+    with set_exploration_type(ExplorationType.DETERMINISTIC), swap:
+        ro = t.eval_env.rollout(t.cfg.env.max_steps, t.actor, break_when_any_done=False)
     return summarize(episode_metrics(ro, t.cfg.env.goal_radius))
 
 def hook(frames, deployed):
