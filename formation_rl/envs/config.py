@@ -66,9 +66,6 @@ class RewardConfig:
     leader_robot_collision: float = 1.0  # the leader's share of R5 (ours; 1: the paper). 0: followers alone answer
     #                                      for robot contacts, and a contact leaves the leader's guided term in place;
     #                                      it scales the robot part of the leader's proximity ramp too
-    leader_robot_proximity: float | None = None  # the leader's share of the robot part of the proximity ramp (ours);
-    #                                              None: leader_robot_collision's. With env.leader_senses_robots, a
-    #                                              leader that pays the ramp but not R5 can learn to give way at the start
     start_robot_collision: float | None = None  # R5 for a robot's contact while it is inside the start square, where
     #                                             the team assembles from discs 0.3 m apart (ours); None: R5 everywhere
 
@@ -107,9 +104,6 @@ class EnvConfig:
     observe_velocities: bool = False  # followers also see the others' velocities after their positions (a departure)
     observe_distance_errors: bool = False  # ... and then d_ij - d*_ij to each other robot under the active formation,
     #                                        0 for a pair it does not keep (a departure)
-    leader_senses_robots: bool = False  # the leader's spare role columns hold p_0 - p_j for each other robot j it
-    #                                     senses (surface gap <= sensing_range, as for obstacles), zeros otherwise (a
-    #                                     departure); needs observe_velocities, whose columns the leader leaves free
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
@@ -169,11 +163,8 @@ class EnvConfig:
         _check(self.num_obstacles, "num_obstacles", lambda v: isinstance(v, int) and v >= 0, "an integer >= 0")
         _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
-        for name in ("relative_positions", "observe_velocities", "observe_distance_errors", "leader_senses_robots"):
+        for name in ("relative_positions", "observe_velocities", "observe_distance_errors"):
             _check(getattr(self, name), name, lambda v: isinstance(v, bool), "true or false")
-        if self.leader_senses_robots:
-            _check(self.observe_velocities, "observe_velocities", bool,
-                   "true with leader_senses_robots=true (the leader's view of the robots takes the columns it frees)")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")
         for name in ("obstacle_min_gap", "robot_collision_margin", "obstacle_collision_margin", "sensing_range"):
@@ -218,8 +209,6 @@ class EnvConfig:
         _check(r.own_progress, "reward.own_progress", lambda v: isinstance(v, bool), "true or false")
         _check(r.leader_robot_collision, "reward.leader_robot_collision", lambda v: _finite(v) and 0 <= v <= 1,
                "a number in [0, 1]")
-        _check(r.leader_robot_proximity, "reward.leader_robot_proximity",
-               lambda v: v is None or (_finite(v) and v >= 0), "null or a finite number >= 0")
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")
         _check(r.start_robot_collision, "reward.start_robot_collision", lambda v: v is None or _finite(v),
                "a finite number or null")

@@ -115,9 +115,6 @@ def step_quantities(
             return per_formation[0]
     follower_err, worst, formation_error = active(follower_err), active(worst), active(formation_error)
     extra = {} if gaps is None else {"distance_error": active(gaps)}  # [N, N, B]
-    if cfg.leader_senses_robots:  # p_0 - p_j for each robot j the leader senses, else zeros: [2, N - 1, B]
-        seen = (dist[0, 1:] - 2 * r) <= cfg.sensing_range  # [N - 1, B]
-        extra["leader_view"] = (pos[:, :1] - pos[:, 1:]) * seen
     if progress:
         prev_follower_err = active(prev_follower_err)
     bonus = torch.where(area, rw.formation_area, rw.formation_open)  # R3 or R2, [B]
@@ -164,9 +161,8 @@ def step_quantities(
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]
         obstacle_clear = gap - cfg.obstacle_collision_margin  # [N, M, B]
         robot_ramp = (1 - robot_clear / reach).clamp_(min=0).sum(1)  # [N, B]
-        lead = rw.leader_robot_collision if rw.leader_robot_proximity is None else rw.leader_robot_proximity
-        if lead != 1.0:  # the leader's share of the robot ramp: by default its share of R5
-            robot_ramp[0] *= lead
+        if rw.leader_robot_collision != 1.0:  # the leader answers for robot contacts by its share of R5
+            robot_ramp[0] *= rw.leader_robot_collision
         ramp = robot_ramp + (1 - obstacle_clear / reach).clamp_(min=0).sum(1)
         guided -= rw.proximity * ramp
     if progress:

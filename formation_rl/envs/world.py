@@ -153,31 +153,27 @@ def _source_rows(n: int, m: int) -> tuple[int, ...]:
 
     Blocks: positions x (N), y (N); velocities x (N), y (N); p_lea - p_g (2); a zero (1);
     obstacle offsets x (N*M), y (N*M); sensed flags (N*M); obstacle-area flag (1); distance errors d_ij - d*_ij
-    (N*N, row i*N + j; filled only with ``observe_distance_errors``); the leader's view of the robots, p_0 - p_j
-    for j = 1..N-1, x then y per robot (2(N-1); filled only with ``leader_senses_robots``).
+    (N*N, row i*N + j; filled only with ``observe_distance_errors``).
     """
     P, V, G, Z = 0, 2 * n, 4 * n, 4 * n + 2
     OX, OY, S = Z + 1, Z + 1 + n * m, Z + 1 + 2 * n * m
     F = S + n * m
     E = F + 1
-    L = E + n * n
-    return P, V, G, Z, OX, OY, S, F, E, L, L + 2 * (n - 1)
+    return P, V, G, Z, OX, OY, S, F, E, E + n * n
 
 
 def observation_index(n: int, m: int, device=None, velocities: bool = False,
-                      distance_errors: bool = False, leader_view: bool = False) -> torch.Tensor:
+                      distance_errors: bool = False) -> torch.Tensor:
     """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``;
     ``velocities``: the role block goes on with the other robots' velocities (zeros for the leader);
-    ``distance_errors``: ... then with ``d_ij - d*_ij`` to each other robot j (zeros for the leader);
-    ``leader_view``: the leader's role block goes on after p - p_g with p_0 - p_j of the robots it senses."""
-    P, V, G, Z, OX, OY, S, F, E, L, _ = _source_rows(n, m)
+    ``distance_errors``: ... then with ``d_ij - d*_ij`` to each other robot j (zeros for the leader)."""
+    P, V, G, Z, OX, OY, S, F, E, _ = _source_rows(n, m)
     rows = []
     for i in range(n):
         row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
-        if i == 0:  # p - p_g, (p_0 - p_j if sensed,) then zeros
+        if i == 0:  # p - p_g, then zeros
             zeros = 2 * (n - 2) + (2 * (n - 1) if velocities else 0) + (n - 1 if distance_errors else 0)
-            view = list(range(L, L + 2 * (n - 1))) if leader_view else []
-            row += [G, G + 1] + view + [Z] * (zeros - len(view))
+            row += [G, G + 1] + [Z] * zeros
         else:
             others = [j if j < i else j + 1 for j in range(n - 1)]  # other robots in index order
             for k in others:
@@ -199,7 +195,7 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     One gather of contiguous rows, then one transpose: no strided writes.
     """
     _, n, b = pos.shape
-    P, V, G, Z, OX, OY, S, F, E, L, height = _source_rows(n, q["sensed"].shape[1])
+    P, V, G, Z, OX, OY, S, F, E, height = _source_rows(n, q["sensed"].shape[1])
     source = torch.empty(height, b, dtype=pos.dtype, device=pos.device)
     source[P:V] = pos.reshape(2 * n, b)
     source[V:G] = vel.reshape(2 * n, b)
@@ -211,9 +207,7 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     torch.mul(oy, sensed, out=source[OY:S].view_as(oy))
     source[F] = q["in_area"]
     if "distance_error" in q:
-        source[E:L] = q["distance_error"].reshape(n * n, b)
-    if "leader_view" in q:  # [2, N - 1, B] -> rows x, y per robot
-        source[L:].view(n - 1, 2, b).copy_(q["leader_view"].transpose(0, 1))
+        source[E:] = q["distance_error"].reshape(n * n, b)
     return source.index_select(0, index).T.reshape(b, n, -1)
 
 

@@ -86,30 +86,6 @@ def test_observe_velocities_adds_the_others_velocities_after_their_positions(rel
     check_env_specs(FormationEnv(4, config=EnvConfig(observe_velocities=True, relative_positions=rel), seed=0))
 
 
-def test_leader_senses_robots_fills_its_spare_columns_with_the_robots_it_senses():
-    """env.leader_senses_robots: after p - p_g the leader sees p_0 - p_j of each robot j whose surface gap is within
-    the sensing range (0.2 m: centres <= 0.4 m apart), zeros for the others; the followers' observations and the
-    width are unchanged; the option needs observe_velocities (the columns it frees)."""
-    pos = [[1.0, 1.0], [0.7, 1.1], [1.6, 0.2], [1.0, 1.39]]  # robots 1 and 3 within 0.4 m of the leader, 2 not
-    state = dict(positions=[pos], velocities=[[[0.1, 0.2], [0.0, -0.3], [0.5, 0.0], [0.0, 0.1]]], goal=[[3.2, 3.1]],
-                 obstacle_centers=[[[3.0, -1.75], [-3.0, -1.0]]], obstacle_radii=[[0.5, 0.4]])
-    obs = {}
-    for view in (False, True):
-        cfg = EnvConfig(num_robots=4, num_obstacles=2, relative_positions=True, observe_velocities=True,
-                        leader_senses_robots=view)
-        obs[view] = FormationEnv(1, config=cfg, seed=0).set_world_state(**state)["agents", "observation"][0]
-    plain, more = obs[False], obs[True]
-    assert more.shape == plain.shape and torch.equal(more[1:], plain[1:])
-    p = torch.tensor(pos)
-    expected = torch.cat([p[0] - p[1], torch.zeros(2), p[0] - p[3]])
-    torch.testing.assert_close(more[0, 6:12], expected)
-    assert torch.equal(more[0, :6], plain[0, :6]) and torch.equal(more[0, 12:], plain[0, 12:])
-    assert (plain[0, 6:12] == 0).all()
-    check_env_specs(FormationEnv(4, config=EnvConfig(observe_velocities=True, leader_senses_robots=True), seed=0))
-    with pytest.raises(ValueError, match=r"env.observe_velocities = False is invalid: must be true with leader_sen"):
-        EnvConfig(leader_senses_robots=True).validate()
-
-
 @pytest.mark.parametrize("inside", [False, True])
 def test_observe_distance_errors_adds_each_kept_pairs_error_under_the_active_formation(inside):
     """env.observe_distance_errors: a follower's role block ends with d_ij - d*_ij to each other robot j, signed,

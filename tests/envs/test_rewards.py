@@ -222,15 +222,6 @@ def test_proximity_ramps_toward_a_collision_before_it_happens():
     ref0, _ = rewards_at(FormationEnv(1, config=free, seed=0), near)
     assert shared[0] == pytest.approx(ref0[0], abs=1e-5)
     assert shared[1] == pytest.approx(r[1], abs=1e-5)
-    # ... unless reward.leader_robot_proximity sets the leader's ramp apart from R5: the ramp back, no R5
-    cfg.reward = RewardConfig(proximity=2.0, proximity_range=0.2, leader_robot_collision=0.0, leader_robot_proximity=0.5)
-    apart, _ = rewards_at(FormationEnv(1, config=cfg, seed=0), near)
-    assert apart[0] == pytest.approx(ref0[0] - 0.5 * 2.0 * ramp, abs=1e-5)
-    assert apart[1] == pytest.approx(r[1], abs=1e-5)
-    with pytest.raises(ValueError, match=r"env.reward.leader_robot_proximity = -1"):
-        bad = EnvConfig()
-        bad.reward = RewardConfig(leader_robot_proximity=-1)
-        bad.validate()
 
 
 def test_leader_robot_collision_share():
