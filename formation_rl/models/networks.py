@@ -244,7 +244,7 @@ class PerRobotMLP(nn.Module):
     """N independent MLPs ``in -> hidden... -> out``, input ``[..., N, in]``, output ``[..., N, out]``."""
 
     def __init__(self, num_robots: int, in_features: int, out_features: int, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu", layer_norm: bool = False):
+                 activation: str = "relu"):
         super().__init__()
         if activation not in ACTIVATIONS:
             raise ValueError(f"model.activation = {activation!r} is invalid: must be one of {', '.join(ACTIVATIONS)}")
@@ -260,7 +260,6 @@ class PerRobotMLP(nn.Module):
         self.compute_dtype: torch.dtype | None = None  # torch.bfloat16: hidden layers under autocast with grad
         self.target_dtype: torch.dtype | None = None  # ... and in the update's TD-target passes (target_passes())
         self.hand_written: bool | None = None  # _ReluLayers: None = under bf16 only; True/False forces it (tests)
-        self.layer_norm = layer_norm  # every hidden layer's pre-activation normalised (no affine), autograd path
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
@@ -274,7 +273,7 @@ class PerRobotMLP(nn.Module):
         ``precision=bf16`` only, until a learning A/B shows it equal to the autograd path (the fp32 default
         stays on autograd; the same-process step A/B is in benchmarks/README.md)."""
         on = self.compute_dtype is not None if self.hand_written is None else self.hand_written
-        return on and type(self.activation) is nn.ReLU and not self.layer_norm
+        return on and type(self.activation) is nn.ReLU
 
     def hidden_dtype(self) -> torch.dtype | None:
         """The hidden layers' dtype for the pass now running (None: fp32): ``compute_dtype`` with gradients on,
@@ -295,10 +294,6 @@ class PerRobotMLP(nn.Module):
             weights[0] = first
         return _ReluLayers.apply(x, action, self.num_robots, dtype, *weights, *self.biases)[0]
 
-    def norm(self, h: torch.Tensor) -> torch.Tensor:
-        """``model.critic_layer_norm``: layer normalisation of a hidden pre-activation, else ``h`` as is."""
-        return nn.functional.layer_norm(h, h.shape[-1:]) if self.layer_norm else h
-
     def layers_from(self, h: torch.Tensor, first: int) -> torch.Tensor:
         """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``.
 
@@ -308,7 +303,7 @@ class PerRobotMLP(nn.Module):
         last = len(self.weights) - 1
         with _hidden_autocast(h, self.hidden_dtype()):
             for k in range(first, last):
-                h = self.activation(self.norm(torch.baddbmm(self.biases[k], h, self.weights[k])))  # robot i's layer
+                h = self.activation(torch.baddbmm(self.biases[k], h, self.weights[k]))  # robot i's layer
         return torch.baddbmm(self.biases[last], h.float(), self.weights[last])
 
 
@@ -325,11 +320,11 @@ class CentralizedCritic(nn.Module):
     """
 
     def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu", own_only: tuple[int, ...] = (), layer_norm: bool = False):
+                 activation: str = "relu", own_only: tuple[int, ...] = ()):
         super().__init__()
         n, d = num_robots, obs_dim
         # critic i's first-layer input: every observation (N*D), then every action (N*2)
-        self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation, layer_norm)
+        self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation)
         mask = None
         if own_only:
             mask = torch.ones(n, n * (d + action_dim), 1)
@@ -363,7 +358,7 @@ class CentralizedCritic(nn.Module):
                 ar = torch.arange(n, device=w1.device)
                 w_own = w1[:, n * d :].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
                 h = torch.baddbmm(h, (act - dead).transpose(0, 1), w_own)
-            h = self.mlp.activation(self.mlp.norm(h))
+            h = self.mlp.activation(h)
         h = self.mlp.layers_from(h, 1)  # [N, B, 1]
         return h.transpose(0, 1).reshape(*lead, n, 1)
 
@@ -424,11 +419,11 @@ def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str
 
 
 def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
-                own_only: tuple[int, ...] = (), layer_norm: bool = False) -> ValueOperator:
+                own_only: tuple[int, ...] = ()) -> ValueOperator:
     """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``
     (``own_only``: see :class:`CentralizedCritic`)."""
     return ValueOperator(
-        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only), layer_norm),
+        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only)),
         in_keys=[("agents", "observation"), ("agents", "action")],
         out_keys=[("agents", "state_action_value")],
     )

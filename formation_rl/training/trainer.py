@@ -76,8 +76,7 @@ class Trainer:
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
                                 residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation,
-                             own_only=(0,) if cfg.model.leader_critic == "own" else (),
-                             layer_norm=cfg.model.critic_layer_norm).to(dev)
+                             own_only=(0,) if cfg.model.leader_critic == "own" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
