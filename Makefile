@@ -29,7 +29,7 @@ $(PY): pyproject.toml
 
 setup: $(PY)  ## create .venv and install the package with its dev tools
 
-train: $(PY)  ## train ALGO with RECIPE (hindsight: our from-scratch PER-MATD3 recipe, ~10-24 min by CPU host; paper: the paper's setup, 3 min); ARGS = Hydra overrides
+train: $(PY)  ## train ALGO with RECIPE (hindsight: our from-scratch PER-MATD3 recipe, ~10-30 min by CPU host; paper: the paper's setup, 3 min); ARGS = Hydra overrides
 	$(PY) -m formation_rl.apps.train algo=$(ALGO) recipe=$(RECIPE) $(ARGS)
 
 train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradient steps)
