@@ -244,7 +244,7 @@ class PerRobotMLP(nn.Module):
     """N independent MLPs ``in -> hidden... -> out``, input ``[..., N, in]``, output ``[..., N, out]``."""
 
     def __init__(self, num_robots: int, in_features: int, out_features: int, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu"):
+                 activation: str = "relu", layer_norm: tuple[int, ...] = ()):
         super().__init__()
         if activation not in ACTIVATIONS:
             raise ValueError(f"model.activation = {activation!r} is invalid: must be one of {', '.join(ACTIVATIONS)}")
@@ -260,6 +260,10 @@ class PerRobotMLP(nn.Module):
         self.compute_dtype: torch.dtype | None = None  # torch.bfloat16: hidden layers under autocast with grad
         self.target_dtype: torch.dtype | None = None  # ... and in the update's TD-target passes (target_passes())
         self.hand_written: bool | None = None  # _ReluLayers: None = under bf16 only; True/False forces it (tests)
+        self.layer_norm = tuple(layer_norm)  # these robots' hidden pre-activations normalised (no affine), autograd path
+        ln_mask = torch.zeros(num_robots, 1, 1, dtype=torch.bool)
+        ln_mask[list(self.layer_norm)] = True
+        self.register_buffer("ln_mask", ln_mask, persistent=False)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
@@ -273,7 +277,7 @@ class PerRobotMLP(nn.Module):
         ``precision=bf16`` only, until a learning A/B shows it equal to the autograd path (the fp32 default
         stays on autograd; the same-process step A/B is in benchmarks/README.md)."""
         on = self.compute_dtype is not None if self.hand_written is None else self.hand_written
-        return on and type(self.activation) is nn.ReLU
+        return on and type(self.activation) is nn.ReLU and not self.layer_norm
 
     def hidden_dtype(self) -> torch.dtype | None:
         """The hidden layers' dtype for the pass now running (None: fp32): ``compute_dtype`` with gradients on,
@@ -294,6 +298,14 @@ class PerRobotMLP(nn.Module):
             weights[0] = first
         return _ReluLayers.apply(x, action, self.num_robots, dtype, *weights, *self.biases)[0]
 
+    def norm(self, h: torch.Tensor) -> torch.Tensor:
+        """``model.critic_layer_norm``: robot-major ``h`` ``[N, B, H]`` with the ``layer_norm`` robots' rows
+        normalised, the others as they are."""
+        if not self.layer_norm:
+            return h
+        normed = nn.functional.layer_norm(h, h.shape[-1:])
+        return normed if len(self.layer_norm) == self.num_robots else torch.where(self.ln_mask, normed, h)
+
     def layers_from(self, h: torch.Tensor, first: int) -> torch.Tensor:
         """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``.
 
@@ -303,7 +315,7 @@ class PerRobotMLP(nn.Module):
         last = len(self.weights) - 1
         with _hidden_autocast(h, self.hidden_dtype()):
             for k in range(first, last):
-                h = self.activation(torch.baddbmm(self.biases[k], h, self.weights[k]))  # robot i's layer
+                h = self.activation(self.norm(torch.baddbmm(self.biases[k], h, self.weights[k])))  # robot i's layer
         return torch.baddbmm(self.biases[last], h.float(), self.weights[last])
 
 
@@ -320,11 +332,11 @@ class CentralizedCritic(nn.Module):
     """
 
     def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu", own_only: tuple[int, ...] = ()):
+                 activation: str = "relu", own_only: tuple[int, ...] = (), layer_norm: tuple[int, ...] = ()):
         super().__init__()
         n, d = num_robots, obs_dim
         # critic i's first-layer input: every observation (N*D), then every action (N*2)
-        self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation)
+        self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation, layer_norm)
         mask = None
         if own_only:
             mask = torch.ones(n, n * (d + action_dim), 1)
@@ -358,7 +370,7 @@ class CentralizedCritic(nn.Module):
                 ar = torch.arange(n, device=w1.device)
                 w_own = w1[:, n * d :].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
                 h = torch.baddbmm(h, (act - dead).transpose(0, 1), w_own)
-            h = self.mlp.activation(h)
+            h = self.mlp.activation(self.mlp.norm(h))
         h = self.mlp.layers_from(h, 1)  # [N, B, 1]
         return h.transpose(0, 1).reshape(*lead, n, 1)
 
@@ -419,11 +431,12 @@ def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str
 
 
 def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
-                own_only: tuple[int, ...] = ()) -> ValueOperator:
+                own_only: tuple[int, ...] = (), layer_norm: tuple[int, ...] = ()) -> ValueOperator:
     """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``
-    (``own_only``: see :class:`CentralizedCritic`)."""
+    (``own_only``: see :class:`CentralizedCritic`; ``layer_norm``: the robots whose critics normalise their hidden
+    pre-activations)."""
     return ValueOperator(
-        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only)),
+        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only), tuple(layer_norm)),
         in_keys=[("agents", "observation"), ("agents", "action")],
         out_keys=[("agents", "state_action_value")],
     )

@@ -76,7 +76,8 @@ class Trainer:
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
                                 residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation,
-                             own_only=(0,) if cfg.model.leader_critic == "own" else ()).to(dev)
+                             own_only=(0,) if cfg.model.leader_critic == "own" else (),
+                             layer_norm={"none": (), "leader": (0,), "all": range(n)}[cfg.model.critic_layer_norm]).to(dev)
         set_precision(self.actor, cfg.precision)
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)

@@ -75,6 +75,25 @@ def test_critic_equals_per_robot_mlp_on_the_joint_input():
     torch.testing.assert_close(critic(td(obs, act))["agents", "state_action_value"], expected, atol=1e-5, rtol=1e-5)
 
 
+@pytest.mark.parametrize("layer_norm", [(), (0,), tuple(range(N))])
+def test_critic_layer_norm_normalises_each_hidden_pre_activation(layer_norm):
+    """model.critic_layer_norm: scaling a hidden layer's weights and bias by c > 0 leaves the normalised robots'
+    critics unchanged (the normalised pre-activation is scale-free) and scales the others' values; the joint first
+    layer equals the per-robot MLP on the joint input either way."""
+    critic = make_critic(N, D, (16, 16), layer_norm=layer_norm)
+    obs, act = torch.randn(5, N, D), torch.rand(5, N, 2) * 2 - 1
+    q0 = critic(td(obs, act))["agents", "state_action_value"]
+    joint = torch.cat([obs.flatten(-2), act.flatten(-2)], -1)
+    torch.testing.assert_close(critic.module.mlp(joint.unsqueeze(-2).expand(5, N, -1)), q0, atol=1e-5, rtol=1e-5)
+    with torch.no_grad():
+        for k in (0, 1):
+            critic.module.mlp.weights[k].mul_(3.0)
+            critic.module.mlp.biases[k].mul_(3.0)
+    q1 = critic(td(obs, act))["agents", "state_action_value"]
+    for i in range(N):
+        assert torch.allclose(q1[:, i], q0[:, i], atol=1e-4) == (i in layer_norm)
+
+
 def test_bf16_runs_hidden_layers_in_bf16_only_with_gradients():
     """precision=bf16: passes without gradients (TD targets, collection) equal fp32 to float rounding (the
     hand-written layers sum the output layer in another order); with gradients the hidden layers run in bf16,
