@@ -45,5 +45,3 @@ class AlgoConfig:
     her: float = 0.0  # hindsight goals (ours): this share of each collector batch's env copies is stored a second
     #                   time with the leader's goal moved to where the leader is at a random step of that batch
     #                   (observations and rewards measured again from the stored world states); 0: off
-    start_replay: int = 0  # extra copies stored of each transition whose leader is still inside the start square,
-    #                        where the team pushes off from 0.3 m apart (ours): the start sampled more often; 0: off

@@ -98,8 +98,6 @@ def validate(cfg: TrainConfig) -> None:
     check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")
     check(0 <= a.exploration_eps <= 1, "algo.exploration_eps", a.exploration_eps, "in [0, 1]")
     check(0 <= a.her <= 1, "algo.her", a.her, "in [0, 1]")
-    check(isinstance(a.start_replay, int) and a.start_replay >= 0, "algo.start_replay", a.start_replay,
-          "an integer >= 0")
     check(len(cfg.model.hidden) >= 1 and all(h >= 1 for h in cfg.model.hidden), "model.hidden", cfg.model.hidden,
           "a non-empty list of positive layer sizes")
     check(cfg.model.residual in ("none", "apf"), "model.residual", cfg.model.residual, "none or apf")

@@ -194,15 +194,8 @@ class Trainer:
                 goal = data.get(("next", "state", "positions"))[rows, steps, 0]  # [R, 2]
                 part = data[rows]
                 batches.append(self.env.relabel_goal(part, goal[:, None].expand(-1, data.shape[1], 2)))
-        copies, env = self.cfg.algo.start_replay, self.cfg.env
         for batch in batches:
-            if copies:  # before MultiStep: the leader's position in the state each transition starts from
-                lead = batch.get(("state", "positions"))[..., 0, :]  # [B, T, 2]
-                early = ((lead >= env.start_low) & (lead <= env.start_high)).all(-1).reshape(-1)
-            transitions = to_transitions(batch if self.multistep is None else self.multistep(batch))
-            self.buffer.extend(transitions)
-            if copies and early.any():
-                self.buffer.extend(transitions[early].repeat(copies))
+            self.buffer.extend(to_transitions(batch if self.multistep is None else self.multistep(batch)))
 
     def _gradient_step(self) -> dict[str, torch.Tensor]:
         with self.timings("buffer_sample"):

@@ -144,25 +144,3 @@ def test_her_stores_hindsight_copies_of_the_chosen_env_copies(tmp_path):
     cfg.algo.her = -0.1
     with pytest.raises(ValueError, match=r"^algo.her = -0.1 is invalid: must be in \[0, 1\]"):
         Trainer(cfg, tmp_path / "bad")
-
-
-def test_start_replay_stores_extra_copies_of_the_transitions_that_start_in_the_start_square(tmp_path):
-    """algo.start_replay = k: each transition whose leader is inside the start square is stored k more times."""
-    cfg = tiny(frames=320)
-    cfg.algo.start_replay = 2
-    trainer = Trainer(cfg, tmp_path)
-    batches = []
-    trainer._extend = (lambda extend: lambda data: (batches.append(data.clone()), extend(data))[1])(trainer._extend)
-    trainer.train()
-    lead = torch.cat([b.get(("state", "positions"))[..., 0, :].reshape(-1, 2) for b in batches])
-    lo, hi = cfg.env.start_low, cfg.env.start_high
-    early = ((lead >= lo) & (lead <= hi)).all(-1)
-    assert 0 < early.sum() < early.numel()  # some transitions start in the square, some outside it
-    assert len(trainer.buffer) == 320 + 2 * int(early.sum())
-    stored = trainer.buffer.storage.get(torch.arange(len(trainer.buffer)))
-    first = batches[0].get(("agents", "observation")).reshape(-1, *stored.get(("agents", "observation")).shape[1:])
-    extra = stored[160:160 + 2 * int(early[:160].sum())].get(("agents", "observation"))
-    torch.testing.assert_close(extra, first[early[:160]].repeat(2, 1, 1))  # the first batch's early ones, twice
-    cfg.algo.start_replay = -1
-    with pytest.raises(ValueError, match=r"^algo.start_replay = -1 is invalid: must be an integer >= 0"):
-        Trainer(cfg, tmp_path / "bad")
