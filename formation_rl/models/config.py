@@ -16,5 +16,5 @@ class ModelConfig:
     leader_critic: str = "joint"  # joint: the paper's centralized critic for every robot | own: the leader's critic
     #                               reads its own observation and action only (ours; for rewards where the leader
     #                               answers for nothing the followers do, env.reward.leader_robot_collision=0)
-    critic_layer_norm: str = "none"  # leader | all: layer normalisation (no affine) before every hidden ReLU of the
-    #                                  leader's critic or of every critic | none
+    critic_layer_norm: str = "none"  # leader: layer normalisation (no affine) before every hidden ReLU of the leader's
+    #                                  critic | none (every critic: not kept, docs/RESULTS.md "Layer normalisation ...")

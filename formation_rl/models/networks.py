@@ -261,9 +261,6 @@ class PerRobotMLP(nn.Module):
         self.target_dtype: torch.dtype | None = None  # ... and in the update's TD-target passes (target_passes())
         self.hand_written: bool | None = None  # _ReluLayers: None = under bf16 only; True/False forces it (tests)
         self.layer_norm = tuple(layer_norm)  # these robots' hidden pre-activations normalised (no affine), autograd path
-        ln_mask = torch.zeros(num_robots, 1, 1, dtype=torch.bool)
-        ln_mask[list(self.layer_norm)] = True
-        self.register_buffer("ln_mask", ln_mask, persistent=False)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
@@ -303,8 +300,11 @@ class PerRobotMLP(nn.Module):
         normalised, the others as they are."""
         if not self.layer_norm:
             return h
-        normed = nn.functional.layer_norm(h, h.shape[-1:])
-        return normed if len(self.layer_norm) == self.num_robots else torch.where(self.ln_mask, normed, h)
+        if len(self.layer_norm) == self.num_robots:
+            return nn.functional.layer_norm(h, h.shape[-1:])
+        # row by row, no mask buffer: a buffer would join the loss's parameter TensorDict (and its soft updates)
+        return torch.stack([nn.functional.layer_norm(h[i], h.shape[-1:]) if i in self.layer_norm else h[i]
+                            for i in range(self.num_robots)])
 
     def layers_from(self, h: torch.Tensor, first: int) -> torch.Tensor:
         """Layers ``first...`` on robot-major input ``[N, B, in_first]``; returns ``[N, B, out]``.

@@ -103,8 +103,8 @@ def validate(cfg: TrainConfig) -> None:
     check(cfg.model.residual in ("none", "apf"), "model.residual", cfg.model.residual, "none or apf")
     check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
     check(cfg.model.leader_critic in ("joint", "own"), "model.leader_critic", cfg.model.leader_critic, "joint or own")
-    check(cfg.model.critic_layer_norm in ("none", "leader", "all"), "model.critic_layer_norm",
-          cfg.model.critic_layer_norm, "none, leader or all")
+    check(cfg.model.critic_layer_norm in ("none", "leader"), "model.critic_layer_norm",
+          cfg.model.critic_layer_norm, "none or leader")
     check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
     check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
     check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")

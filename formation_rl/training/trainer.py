@@ -77,7 +77,7 @@ class Trainer:
                                 residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation,
                              own_only=(0,) if cfg.model.leader_critic == "own" else (),
-                             layer_norm={"none": (), "leader": (0,), "all": range(n)}[cfg.model.critic_layer_norm]).to(dev)
+                             layer_norm=(0,) if cfg.model.critic_layer_norm == "leader" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)

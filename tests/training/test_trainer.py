@@ -109,6 +109,15 @@ def test_residual_rejects_unknown_bases():
     assert not Path("/tmp/never_written_residual").exists()
 
 
+def test_critic_layer_norm_rejects_every_critic_before_any_work():
+    """model.critic_layer_norm: the leader's critic or none (every critic was tried and removed)."""
+    cfg = tiny()
+    cfg.model.critic_layer_norm = "all"
+    with pytest.raises(ValueError, match="model.critic_layer_norm = 'all' is invalid: must be none or leader"):
+        Trainer(cfg, "/tmp/never_written_layer_norm")
+    assert not Path("/tmp/never_written_layer_norm").exists()
+
+
 
 def test_exploration_eps_replaces_actions_with_uniform_ones_during_collection_only(tmp_path):
     from torchrl.envs.utils import ExplorationType, set_exploration_type
