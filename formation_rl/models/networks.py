@@ -260,7 +260,7 @@ class PerRobotMLP(nn.Module):
         self.compute_dtype: torch.dtype | None = None  # torch.bfloat16: hidden layers under autocast with grad
         self.target_dtype: torch.dtype | None = None  # ... and in the update's TD-target passes (target_passes())
         self.hand_written: bool | None = None  # _ReluLayers: None = under bf16 only; True/False forces it (tests)
-        self.layer_norm = tuple(layer_norm)  # these robots' hidden pre-activations normalised (no affine), autograd path
+        self.layer_norm = tuple(layer_norm)  # these robots' hidden layers normalised (no affine), autograd path
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = x.shape[:-2], x.shape[-2:]
