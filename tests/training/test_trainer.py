@@ -1,8 +1,6 @@
 """formation_rl.training.trainer: a tiny run end to end, TensorBoard tags, checkpoints, learning, residual
 actors, exploration."""
 
-from pathlib import Path
-
 import pytest
 import torch
 from helpers import scalars, tiny
@@ -101,21 +99,14 @@ def test_residual_actors_start_as_the_controller_learn_corrections_and_reload(tm
 
 
 
-def test_residual_rejects_unknown_bases():
+@pytest.mark.parametrize("field, value, allowed", [("residual", "pid", "none or apf"),
+                                                   ("critic_layer_norm", "all", "none or leader")])  # all: removed
+def test_model_rejects_unknown_choices_before_any_work(field, value, allowed, tmp_path):
     cfg = tiny()
-    cfg.model.residual = "pid"
-    with pytest.raises(ValueError, match="model.residual = 'pid' is invalid: must be none or apf"):
-        Trainer(cfg, "/tmp/never_written_residual")
-    assert not Path("/tmp/never_written_residual").exists()
-
-
-def test_critic_layer_norm_rejects_every_critic_before_any_work():
-    """model.critic_layer_norm: the leader's critic or none (every critic was tried and removed)."""
-    cfg = tiny()
-    cfg.model.critic_layer_norm = "all"
-    with pytest.raises(ValueError, match="model.critic_layer_norm = 'all' is invalid: must be none or leader"):
-        Trainer(cfg, "/tmp/never_written_layer_norm")
-    assert not Path("/tmp/never_written_layer_norm").exists()
+    setattr(cfg.model, field, value)
+    with pytest.raises(ValueError, match=f"model.{field} = '{value}' is invalid: must be {allowed}"):
+        Trainer(cfg, tmp_path / "run")
+    assert not (tmp_path / "run").exists()
 
 
 
