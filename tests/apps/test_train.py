@@ -155,4 +155,5 @@ def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
     assert ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
     assert ours.algo.deploy == "target" and (ours.eval_interval, ours.eval_episodes) == (100_000, 500)
     assert dataclasses.replace(ours.algo, her=0.0, n_steps=1, deploy="actor") == paper.algo  # the paper's settings
-    assert ours.model == paper.model and ours.total_frames == 2_000_000
+    assert ours.model.critic_layer_norm == "leader" and paper.model.critic_layer_norm == "none"
+    assert dataclasses.replace(ours.model, critic_layer_norm="none") == paper.model and ours.total_frames == 2_000_000
