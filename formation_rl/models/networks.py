@@ -300,8 +300,6 @@ class PerRobotMLP(nn.Module):
         normalised, the others as they are."""
         if not self.layer_norm:
             return h
-        if len(self.layer_norm) == self.num_robots:
-            return nn.functional.layer_norm(h, h.shape[-1:])
         # row by row, no mask buffer: a buffer would join the loss's parameter TensorDict (and its soft updates)
         return torch.stack([nn.functional.layer_norm(h[i], h.shape[-1:]) if i in self.layer_norm else h[i]
                             for i in range(self.num_robots)])
