@@ -31,8 +31,8 @@ from formation_rl.algorithms import PRIORITY_KEY, WEIGHT_KEY, NonFiniteError, ma
 from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
 from formation_rl.models import make_actor, make_critic, set_precision
-from formation_rl.models.networks import CRITIC_STATE_KEYS
 from formation_rl.models.controller import APFController, residual_base
+from formation_rl.models.networks import CRITIC_STATE_KEYS
 from formation_rl.training.checkpoint import (
     BEST_POLICY,
     CHECKPOINT,
