@@ -104,17 +104,14 @@ class EnvConfig:
     observe_velocities: bool = False  # followers also see the others' velocities after their positions (a departure)
     observe_distance_errors: bool = False  # ... and then d_ij - d*_ij to each other robot under the active formation,
     #                                        0 for a pair it does not keep (a departure)
-    observe_obstacle_gaps: bool = False  # every robot also reads, per obstacle, its surface gap over sensing_range
-    #                                      (clipped to [-1, 1]; 1 when not sensed), after the obstacle block: a range
-    #                                      reading that tells how near the sensed surface is (a departure)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
     @property
     def obs_dim(self) -> int:
         """Per-robot observation width D = 4 + 2(N-1) + 3M + 1 (reference.md, Observations and actions);
-        2(N-1) more with ``observe_velocities``, M more with ``observe_obstacle_gaps``."""
-        return 4 + self.role_width + (4 if self.observe_obstacle_gaps else 3) * self.num_obstacles + 1
+        2(N-1) more with ``observe_velocities``."""
+        return 4 + self.role_width + 3 * self.num_obstacles + 1
 
     @property
     def role_width(self) -> int:
@@ -166,7 +163,7 @@ class EnvConfig:
         _check(self.num_obstacles, "num_obstacles", lambda v: isinstance(v, int) and v >= 0, "an integer >= 0")
         _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
-        for name in ("relative_positions", "observe_velocities", "observe_distance_errors", "observe_obstacle_gaps"):
+        for name in ("relative_positions", "observe_velocities", "observe_distance_errors"):
             _check(getattr(self, name), name, lambda v: isinstance(v, bool), "true or false")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")

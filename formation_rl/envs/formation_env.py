@@ -58,7 +58,7 @@ class FormationEnv(EnvBase):
         self._make_specs(b, n, m, d)
         self._geom = Geometry.build(cfg, self.device)
         self._obs_index = world.observation_index(n, m, self.device, cfg.observe_velocities,
-                                                   cfg.observe_distance_errors, cfg.observe_obstacle_gaps)
+                                                   cfg.observe_distance_errors)
         self._advance = torch.compile(self._advance_eager) if compile_physics else self._advance_eager
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(int(torch.randint(2**62, ())) if seed is None else seed)

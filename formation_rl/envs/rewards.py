@@ -115,8 +115,6 @@ def step_quantities(
             return per_formation[0]
     follower_err, worst, formation_error = active(follower_err), active(worst), active(formation_error)
     extra = {} if gaps is None else {"distance_error": active(gaps)}  # [N, N, B]
-    if cfg.observe_obstacle_gaps:  # a range reading: the surface gap over rho_d, 1 (out of range) when not sensed
-        extra["obstacle_gap"] = (gap / max(cfg.sensing_range, 1e-6)).clamp(-1.0, 1.0)  # [N, M, B]
     if progress:
         prev_follower_err = active(prev_follower_err)
     bonus = torch.where(area, rw.formation_area, rw.formation_open)  # R3 or R2, [B]

@@ -153,24 +153,21 @@ def _source_rows(n: int, m: int) -> tuple[int, ...]:
 
     Blocks: positions x (N), y (N); velocities x (N), y (N); p_lea - p_g (2); a zero (1);
     obstacle offsets x (N*M), y (N*M); sensed flags (N*M); obstacle-area flag (1); distance errors d_ij - d*_ij
-    (N*N, row i*N + j; filled only with ``observe_distance_errors``); obstacle gap readings (N*M, row i*M + j;
-    filled only with ``observe_obstacle_gaps``).
+    (N*N, row i*N + j; filled only with ``observe_distance_errors``).
     """
     P, V, G, Z = 0, 2 * n, 4 * n, 4 * n + 2
     OX, OY, S = Z + 1, Z + 1 + n * m, Z + 1 + 2 * n * m
     F = S + n * m
     E = F + 1
-    R = E + n * n
-    return P, V, G, Z, OX, OY, S, F, E, R, R + n * m
+    return P, V, G, Z, OX, OY, S, F, E, E + n * n
 
 
 def observation_index(n: int, m: int, device=None, velocities: bool = False,
-                      distance_errors: bool = False, obstacle_gaps: bool = False) -> torch.Tensor:
+                      distance_errors: bool = False) -> torch.Tensor:
     """Rows of the source built in :func:`observe` that make each robot's observation, ``[N * D]``;
     ``velocities``: the role block goes on with the other robots' velocities (zeros for the leader);
-    ``distance_errors``: ... then with ``d_ij - d*_ij`` to each other robot j (zeros for the leader);
-    ``obstacle_gaps``: the obstacle block goes on with one gap reading per obstacle (every robot)."""
-    P, V, G, Z, OX, OY, S, F, E, R, _ = _source_rows(n, m)
+    ``distance_errors``: ... then with ``d_ij - d*_ij`` to each other robot j (zeros for the leader)."""
+    P, V, G, Z, OX, OY, S, F, E, _ = _source_rows(n, m)
     rows = []
     for i in range(n):
         row = [P + i, P + n + i, V + i, V + n + i]  # own p, v
@@ -186,7 +183,6 @@ def observation_index(n: int, m: int, device=None, velocities: bool = False,
             row += [E + i * n + k for k in others] if distance_errors else []
         for j in range(m):
             row += [OX + i * m + j, OY + i * m + j, S + i * m + j]  # (p - c_j, 1) if sensed
-        row += [R + i * m + j for j in range(m)] if obstacle_gaps else []
         rows += row + [F]
     return torch.tensor(rows, dtype=torch.int64, device=device)
 
@@ -199,8 +195,7 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     One gather of contiguous rows, then one transpose: no strided writes.
     """
     _, n, b = pos.shape
-    m = q["sensed"].shape[1]
-    P, V, G, Z, OX, OY, S, F, E, R, height = _source_rows(n, m)
+    P, V, G, Z, OX, OY, S, F, E, height = _source_rows(n, q["sensed"].shape[1])
     source = torch.empty(height, b, dtype=pos.dtype, device=pos.device)
     source[P:V] = pos.reshape(2 * n, b)
     source[V:G] = vel.reshape(2 * n, b)
@@ -212,9 +207,7 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     torch.mul(oy, sensed, out=source[OY:S].view_as(oy))
     source[F] = q["in_area"]
     if "distance_error" in q:
-        source[E:R] = q["distance_error"].reshape(n * n, b)
-    if "obstacle_gap" in q:
-        source[R:] = q["obstacle_gap"].reshape(n * m, b)
+        source[E:] = q["distance_error"].reshape(n * n, b)
     return source.index_select(0, index).T.reshape(b, n, -1)
 
 
@@ -231,25 +224,3 @@ def make_relative(obs: torch.Tensor, velocities: bool = False) -> torch.Tensor:
         start = 4 + 2 * (n - 1)
         obs[..., 1:, start:start + 2 * (n - 1)].unflatten(-1, (n - 1, 2)).sub_(obs[..., 1:, None, 2:4])
     return obs
-
-
-CLEARANCE_UNIT = 0.2  # m (the paper's sensing range): the unit of the critics' clearances, clipped to [-1, 5]
-
-
-def clearances(positions: torch.Tensor, centers: torch.Tensor, radii: torch.Tensor, cfg: EnvConfig) -> torch.Tensor:
-    """Every robot's clearance to a contact, from the world state (batch-first, ``positions`` ``[..., N, 2]``,
-    ``centers`` ``[..., M, 2]``, ``radii`` ``[..., M]``): to each obstacle (robot-major, N*M values), then to each
-    other robot (pairs i < j, N(N-1)/2), in units of ``CLEARANCE_UNIT``, clipped to [-1, 5]; 0 is a contact's edge.
-    What ``model.critic_state=clearances`` gives the centralized critics (ours), ``[..., N*M + N(N-1)/2]``."""
-    r = cfg.robot_radius
-    to_obstacle = (positions[..., :, None, :] - centers[..., None, :, :]).norm(dim=-1)  # [..., N, M]
-    obstacle = to_obstacle - radii[..., None, :] - r - cfg.obstacle_collision_margin
-    i, j = torch.triu_indices(positions.shape[-2], positions.shape[-2], 1, device=positions.device)
-    robot = (positions[..., i, :] - positions[..., j, :]).norm(dim=-1) - 2 * r - cfg.robot_collision_margin
-    return (torch.cat([obstacle.flatten(-2), robot], -1) / CLEARANCE_UNIT).clamp(-1.0, 5.0)
-
-
-def clearance_width(cfg: EnvConfig) -> int:
-    """The width of :func:`clearances`."""
-    n = cfg.num_robots
-    return n * cfg.num_obstacles + n * (n - 1) // 2

@@ -54,7 +54,7 @@ class Policy(TensorDictModuleBase):
         if env_cfg.num_robots != mine.num_robots:
             raise ValueError(f"env.num_robots = {env_cfg.num_robots} is invalid: the policy was trained with "
                              f"{mine.num_robots} robots and has one actor per robot")
-        for name in ("relative_positions", "observe_velocities", "observe_distance_errors", "observe_obstacle_gaps"):
+        for name in ("relative_positions", "observe_velocities", "observe_distance_errors"):
             if getattr(env_cfg, name) != getattr(mine, name):
                 raise ValueError(f"env.{name} = {getattr(env_cfg, name)} is invalid: the policy reads the observation "
                                  f"layout of {name}={getattr(mine, name)}")

@@ -18,6 +18,3 @@ class ModelConfig:
     #                               answers for nothing the followers do, env.reward.leader_robot_collision=0)
     critic_layer_norm: str = "none"  # leader: layer normalisation (no affine) before every hidden ReLU of the leader's
     #                                  critic | none (every critic: not kept, docs/RESULTS.md "Layer normalisation ...")
-    critic_state: str = "none"  # clearances: the centralized critics also read every robot's clearance to every
-    #                             obstacle and every other robot, from the world state (training only: the actors
-    #                             read their observations as before; an asymmetric actor-critic, ours) | none

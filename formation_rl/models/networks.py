@@ -20,8 +20,6 @@ from torch import nn
 from torchrl.modules import ValueOperator
 
 from formation_rl.compat import is_batched_tensor
-from formation_rl.envs import world
-from formation_rl.envs.config import EnvConfig
 
 ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "leaky_relu": nn.LeakyReLU}
 
@@ -303,7 +301,8 @@ class PerRobotMLP(nn.Module):
         if not self.layer_norm:
             return h
         # by rows, no mask buffer: a buffer would join the loss's parameter TensorDict (and its soft updates); one
-        # cat of row blocks, not a stack of every row (under vmap 0.7x the time of the stack, the same values)
+        # cat of row blocks, not a stack of every row (the norm's forward and backward under vmap in 0.69x the
+        # stack's time, the same values)
         parts, start = [], 0
         for i in sorted(self.layer_norm):
             parts += [h[start:i], nn.functional.layer_norm(h[i:i + 1], h.shape[-1:])]
@@ -336,19 +335,13 @@ class CentralizedCritic(nn.Module):
     """
 
     def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu", own_only: tuple[int, ...] = (), layer_norm: tuple[int, ...] = (),
-                 clearances: EnvConfig | None = None):
+                 activation: str = "relu", own_only: tuple[int, ...] = (), layer_norm: tuple[int, ...] = ()):
         super().__init__()
         n, d = num_robots, obs_dim
-        self.world = clearances  # every critic also reads the world state's clearances (training only)
-        state_dim = self.state_dim = 0 if clearances is None else world.clearance_width(clearances)
-        # critic i's first-layer input: every observation (N*D), then every action (N*2), then the state's values
-        self.mlp = PerRobotMLP(n, n * (d + action_dim) + state_dim, 1, hidden, activation, layer_norm)
+        # critic i's first-layer input: every observation (N*D), then every action (N*2)
+        self.mlp = PerRobotMLP(n, n * (d + action_dim), 1, hidden, activation, layer_norm)
         mask = None
         if own_only:
-            if state_dim:
-                raise ValueError("model.leader_critic = own is invalid with model.critic_state: the leader's own "
-                                 "critic reads its own observation and action only")
             mask = torch.ones(n, n * (d + action_dim), 1)
             for i in own_only:
                 mask[i] = 0.0
@@ -358,31 +351,27 @@ class CentralizedCritic(nn.Module):
                 self.mlp.weights[0][list(own_only)] *= math.sqrt(n)
         self.register_buffer("input_mask", mask)  # None: every critic reads everything
 
-    def forward(self, observation: torch.Tensor, action: torch.Tensor, *state: torch.Tensor) -> torch.Tensor:
-        """Q_i for every robot, ``[..., N, 1]``; ``state``: the ``CRITIC_STATE_KEYS`` tensors (``clearances``)."""
+    def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = observation.shape[:-2], observation.shape[-2:]
         act = action.reshape(-1, n, 2)
         dead = act.detach()
         w1, b1 = self.mlp.weights[0], self.mlp.biases[0]
         if self.input_mask is not None:
             w1 = w1 * self.input_mask
-        if self.mlp.fast and not self.state_dim:  # the same, forward and backward by hand
+        if self.mlp.fast:  # the same, forward and backward by hand
             h = self.mlp.relu_layers(observation.reshape(-1, n, d), act, first=w1)  # [N, B, 1]
             return h.transpose(0, 1).reshape(*lead, n, 1)
         # first layer of all N critics as one GEMM over the shared joint input, bias fused:
         # [B, N*D + 2N] @ [N*D + 2N, N*H] (weights [N, N*D + 2N, H] laid side by side)
         h_dim = w1.shape[-1]
-        joint = [observation.reshape(-1, n * d), dead.reshape(-1, 2 * n)]
-        if self.state_dim:
-            joint.append(world.clearances(*state, self.world).reshape(-1, self.state_dim))
-        joint = torch.cat(joint, -1)
+        joint = torch.cat([observation.reshape(-1, n * d), dead.reshape(-1, 2 * n)], -1)
         with _hidden_autocast(joint, self.mlp.hidden_dtype()):
             h = torch.addmm(b1.reshape(n * h_dim), joint, w1.permute(1, 0, 2).reshape(-1, n * h_dim))
             h = h.view(-1, n, h_dim).transpose(0, 1)  # [N, B, H]
             if _may_need_grad(action):
                 # a_i's gradient path into critic i alone: adds zero to the values, (a_i - sg(a_i)) W_i^(i)
                 ar = torch.arange(n, device=w1.device)
-                w_own = w1[:, n * d : n * (d + 2)].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
+                w_own = w1[:, n * d :].reshape(n, n, 2, h_dim)[ar, ar]  # [N, 2, H]
                 h = torch.baddbmm(h, (act - dead).transpose(0, 1), w_own)
             h = self.mlp.activation(self.mlp.norm(h))
         h = self.mlp.layers_from(h, 1)  # [N, B, 1]
@@ -413,7 +402,7 @@ class ResidualActor(nn.Module):
             mlp.weights[-1].zero_()
             mlp.biases[-1].zero_()
 
-    def forward(self, observation: torch.Tensor, *_ignored: torch.Tensor) -> torch.Tensor:
+    def forward(self, observation: torch.Tensor) -> torch.Tensor:
         return self.squash(observation, self.mlp(observation))
 
     def squash(self, observation: torch.Tensor, pre: torch.Tensor) -> torch.Tensor:
@@ -435,40 +424,22 @@ def set_precision(module: nn.Module, precision: str) -> None:
             m.compute_dtype, m.target_dtype = PRECISIONS[precision]
 
 
-class _TanhActor(nn.Sequential):
-    """``tanh(mu(o))``; further inputs (``carry_state``) are ignored."""
-
-    def forward(self, observation: torch.Tensor, *_ignored: torch.Tensor) -> torch.Tensor:
-        return super().forward(observation)
-
-
-# the world state model.critic_state's critics read (clearances computed from it)
-CRITIC_STATE_KEYS = [("state", "positions"), ("state", "obstacle_centers"), ("state", "obstacle_radii")]
-
-
 def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
-               base: nn.Module | None = None, residual_scale: float = 0.5, carry_state: bool = False
-               ) -> TensorDictModule:
+               base: nn.Module | None = None, residual_scale: float = 0.5) -> TensorDictModule:
     """Deterministic per-robot actors ``o_i -> tanh(mu_i(o_i))`` in [-1, 1]^2 (decentralized execution);
-    with ``base`` (a controller of the same observations), :class:`ResidualActor` corrections to it.
-    ``carry_state``: the module also takes (and ignores) ``CRITIC_STATE_KEYS``: TorchRL's TD3Loss hands the
-    target critics only what the actor reads, plus the action, so a critic that reads the state needs this."""
+    with ``base`` (a controller of the same observations), :class:`ResidualActor` corrections to it."""
     mlp = PerRobotMLP(num_robots, obs_dim, 2, tuple(hidden), activation)
-    net = _TanhActor(mlp, nn.Tanh()) if base is None else ResidualActor(mlp, base, residual_scale)
-    in_keys = [("agents", "observation"), *(CRITIC_STATE_KEYS if carry_state else [])]
-    return TensorDictModule(net, in_keys=in_keys, out_keys=[("agents", "action")])
+    net = nn.Sequential(mlp, nn.Tanh()) if base is None else ResidualActor(mlp, base, residual_scale)
+    return TensorDictModule(net, in_keys=[("agents", "observation")], out_keys=[("agents", "action")])
 
 
 def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
-                own_only: tuple[int, ...] = (), layer_norm: tuple[int, ...] = (),
-                clearances: EnvConfig | None = None) -> ValueOperator:
+                own_only: tuple[int, ...] = (), layer_norm: tuple[int, ...] = ()) -> ValueOperator:
     """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``
     (``own_only``: see :class:`CentralizedCritic`; ``layer_norm``: the robots whose critics normalise their hidden
-    pre-activations; ``clearances``: the world whose clearances (:func:`~formation_rl.envs.world.clearances`, from
-    ``CRITIC_STATE_KEYS``) every critic also reads, ``model.critic_state=clearances``)."""
-    critic = CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only), tuple(layer_norm),
-                               clearances)
+    pre-activations)."""
     return ValueOperator(
-        critic, in_keys=[("agents", "observation"), ("agents", "action"), *(CRITIC_STATE_KEYS if clearances else [])],
+        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only), tuple(layer_norm)),
+        in_keys=[("agents", "observation"), ("agents", "action")],
         out_keys=[("agents", "state_action_value")],
     )

@@ -45,18 +45,17 @@ def make_replay_buffer(cfg: AlgoConfig, device: torch.device | str = "cpu"):
     return TensorDictReplayBuffer(storage=storage, batch_size=cfg.batch_size)
 
 
-def to_transitions(batch: TensorDictBase, extra_keys: list = ()) -> TensorDictBase:
+def to_transitions(batch: TensorDictBase) -> TensorDictBase:
     """A collector batch ``[B, T]`` as ``[B*T]`` transitions, done flags copied per robot ``[.., N, 1]``.
 
     After TorchRL's ``MultiStep`` (``algo.n_steps > 1``) the batch also carries ``steps_to_next_obs``
     ``[B, T]``, which the TD(0) estimator turns into ``gamma ** steps``; it is kept, per robot.
-    ``extra_keys`` are kept too (the world state that ``model.critic_state``'s critics read).
     """
     nxt = batch.get("next")
     shape = nxt.get(("agents", "reward")).shape  # [B, T, N, 1]
     for key in ("done", "terminated"):
         nxt.set(("agents", key), nxt.get(key).unsqueeze(-2).expand(shape))
-    keys = [*TRANSITION_KEYS, *extra_keys]
+    keys = list(TRANSITION_KEYS)
     steps = batch.get("steps_to_next_obs", None)
     if steps is not None:
         batch.set("steps_to_next_obs", steps.reshape(*shape[:2], 1, 1).expand(shape))

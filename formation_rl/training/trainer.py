@@ -32,7 +32,6 @@ from formation_rl.envs import EnvConfig, FormationEnv
 from formation_rl.envs.metrics import EpisodeTracker, episode_metrics, summarize
 from formation_rl.models import make_actor, make_critic, set_precision
 from formation_rl.models.controller import APFController, residual_base
-from formation_rl.models.networks import CRITIC_STATE_KEYS
 from formation_rl.training.checkpoint import (
     BEST_POLICY,
     CHECKPOINT,
@@ -74,14 +73,11 @@ class Trainer:
                                 start_team=cfg.start_team)
         self.eval_env = FormationEnv(cfg.eval_episodes, config=cfg.env, device=dev, seed=cfg.eval_seed)
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
-        critic_state = cfg.model.critic_state == "clearances"
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
-                                residual_scale=cfg.model.residual_scale, carry_state=critic_state).to(dev)
+                                residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation,
                              own_only=(0,) if cfg.model.leader_critic == "own" else (),
-                             layer_norm=(0,) if cfg.model.critic_layer_norm == "leader" else (),
-                             clearances=cfg.env if critic_state else None).to(dev)
-        self.stored_keys = [(*p, *k) for k in CRITIC_STATE_KEYS for p in ((), ("next",))] if critic_state else []
+                             layer_norm=(0,) if cfg.model.critic_layer_norm == "leader" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
@@ -199,8 +195,7 @@ class Trainer:
                 part = data[rows]
                 batches.append(self.env.relabel_goal(part, goal[:, None].expand(-1, data.shape[1], 2)))
         for batch in batches:
-            self.buffer.extend(to_transitions(batch if self.multistep is None else self.multistep(batch),
-                                              self.stored_keys))
+            self.buffer.extend(to_transitions(batch if self.multistep is None else self.multistep(batch)))
 
     def _gradient_step(self) -> dict[str, torch.Tensor]:
         with self.timings("buffer_sample"):

@@ -117,24 +117,6 @@ def test_observe_distance_errors_adds_each_kept_pairs_error_under_the_active_for
     check_env_specs(FormationEnv(4, config=EnvConfig(observe_distance_errors=True, relative_positions=True), seed=0))
 
 
-def test_observe_obstacle_gaps_adds_a_range_reading_per_obstacle_before_the_flag():
-    """env.observe_obstacle_gaps: after the obstacle block, every robot reads per obstacle its surface gap over
-    the sensing range (clipped to [-1, 1], 1 when not sensed); everything else is the observation without it."""
-    # robot 0 0.05 m from obstacle 0's surface, robot 1 0.15 m, robot 2 far (not sensed); obstacle 1 sensed by none
-    state = dict(positions=[[[0.0, 0.0], [0.65, 0.75], [-3.0, 3.0]]], velocities=[[[0.0, 0.0]] * 3],
-                 goal=[[3.2, 3.1]], obstacle_centers=[[[0.65, 0.0], [-3.0, -1.0]]], obstacle_radii=[[0.5, 0.4]])
-    obs = {}
-    for gaps in (False, True):
-        cfg = EnvConfig(num_robots=3, num_obstacles=2, relative_positions=True, observe_obstacle_gaps=gaps)
-        assert cfg.obs_dim == 4 + 4 + 6 + (2 if gaps else 0) + 1
-        obs[gaps] = FormationEnv(1, config=cfg, seed=0).set_world_state(**state)["agents", "observation"][0]
-    plain, more = obs[False], obs[True]
-    assert (plain[:, 8:14].unflatten(-1, (2, 3))[..., 2] == torch.tensor([[1.0, 0], [1, 0], [0, 0]])).all()  # sensed
-    torch.testing.assert_close(more[:, 14:16], torch.tensor([[0.25, 1.0], [0.75, 1.0], [1.0, 1.0]]))
-    assert torch.equal(more[:, :14], plain[:, :14]) and torch.equal(more[:, 16:], plain[:, 14:])
-    check_env_specs(FormationEnv(4, config=EnvConfig(observe_obstacle_gaps=True, relative_positions=True), seed=0))
-
-
 def test_partial_reset_only_touches_flagged_copies():
     env = FormationEnv(3, seed=0)
     td = env.reset()

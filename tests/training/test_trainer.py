@@ -100,8 +100,7 @@ def test_residual_actors_start_as_the_controller_learn_corrections_and_reload(tm
 
 
 @pytest.mark.parametrize("field, value, allowed", [("residual", "pid", "none or apf"),
-                                                   ("critic_layer_norm", "all", "none or leader"),  # all: removed
-                                                   ("critic_state", "positions", "none or clearances")])
+                                                   ("critic_layer_norm", "all", "none or leader")])  # all: removed
 def test_model_rejects_unknown_choices_before_any_work(field, value, allowed, tmp_path):
     cfg = tiny()
     setattr(cfg.model, field, value)
@@ -145,42 +144,3 @@ def test_her_stores_hindsight_copies_of_the_chosen_env_copies(tmp_path):
     cfg.algo.her = -0.1
     with pytest.raises(ValueError, match=r"^algo.her = -0.1 is invalid: must be in \[0, 1\]"):
         Trainer(cfg, tmp_path / "bad")
-
-
-def test_critic_state_clearances_reach_the_critics_from_the_stored_world_states(tmp_path):
-    """model.critic_state=clearances: transitions keep the world states before and after each (n-)step, every
-    critic reads their clearances (TD targets from the later state), the actors read their observations alone."""
-    from formation_rl.envs import world
-    from formation_rl.models.networks import CRITIC_STATE_KEYS
-
-    cfg = tiny(frames=640)
-    cfg.model.critic_state, cfg.algo.n_steps = "clearances", 3
-    trainer = Trainer(cfg, tmp_path)
-    trainer.train()
-    assert trainer.algo.critic_steps > 0
-    n, d, k = cfg.env.num_robots, cfg.env.obs_dim, world.clearance_width(cfg.env)
-    assert trainer.algo.loss.qvalue_network.module.mlp.weights[0].shape == (n, n * (d + 2) + k, 32)
-    stored = trainer.buffer.storage.get(torch.arange(len(trainer.buffer)))
-    for key in CRITIC_STATE_KEYS:  # the state the next observation was measured in, after the 3-step shift
-        assert stored.get(key).shape == stored.get(("next", *key)).shape
-    assert not torch.equal(stored.get(("state", "positions")), stored.get(("next", "state", "positions")))
-    policy = formation_rl.load_policy(tmp_path)  # decentralized execution: the observation alone
-    td = trainer.env.reset()
-    with torch.no_grad():
-        assert policy(td.select(("agents", "observation"))).get(("agents", "action")).shape == (8, n, 2)
-
-
-def test_clearances_measure_every_robot_to_every_obstacle_and_every_other_robot():
-    from formation_rl.envs import world
-
-    cfg = EnvConfig(num_robots=3, num_obstacles=2)
-    positions = torch.tensor([[0.0, 0.0], [0.0, 0.35], [2.0, 0.0]])
-    centers, radii = torch.tensor([[0.75, 0.0], [-3.0, -3.0]]), torch.tensor([0.5, 0.4])
-    got = world.clearances(positions, centers, radii, cfg) * world.CLEARANCE_UNIT  # metres past the contact margin
-    # surface gap less the 0.1 m contact margin; far ones clipped at 5 units (1 m)
-    obstacle = [0.75 - 0.5 - 0.2, 1.0,  # robot 0
-                (0.75 ** 2 + 0.35 ** 2) ** 0.5 - 0.7, 1.0,  # robot 1
-                1.25 - 0.7, 1.0]  # robot 2
-    robots = [0.35 - 0.3, 1.0, 1.0]  # pairs (0, 1), (0, 2), (1, 2): centre distance less 2r + 0.1 m
-    torch.testing.assert_close(got, torch.tensor(obstacle + robots), atol=1e-5, rtol=0)
-    assert got.shape[-1] == world.clearance_width(cfg)
