@@ -56,6 +56,11 @@ class RewardConfig:
     slot_frame: str = "heading"  # how those slots turn: "heading", with the leader's heading as above; "course",
     #                              along the course from the start square's centre to the goal, a frame that does
     #                              not turn during the episode (ours)
+    follower_chain_slot: float = 0.0  # follower guided += -follower_chain_slot * |p_i - (p_pred - s_chain u_pred)| while
+    #                                   the chain is active: the point one chain spacing behind its predecessor along
+    #                                   that robot's heading u_pred (from rest, slower than 5% of v_max: along the line
+    #                                   from the follower to it, where the term is its chain error); a slot that follows
+    #                                   the way the robot ahead went, not the leader's heading (ours)
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
@@ -203,10 +208,13 @@ class EnvConfig:
             _check_formation(r.area_formation, "reward.area_formation")
         for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
                      "leader_distance", "leader_progress", "follower_error", "follower_progress", "follower_velocity",
-                     "leader_team", "follower_slot", "proximity"):
+                     "leader_team", "follower_slot", "follower_chain_slot", "proximity"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")
+        _check(r.follower_chain_slot, "reward.follower_chain_slot",
+               lambda v: v == 0 or (r.variant == "hybrid" and self.area_formation.shape == "chain"),
+               "0 unless reward.variant is hybrid with a chain as the area formation")
         _check(r.slot_frame, "reward.slot_frame", lambda v: v in ("heading", "course"), "heading or course")
         _check(r.own_progress, "reward.own_progress", lambda v: isinstance(v, bool), "true or false")
         _check(r.leader_robot_collision, "reward.leader_robot_collision", lambda v: _finite(v) and 0 <= v <= 1,

@@ -23,6 +23,7 @@ class Geometry:
     pairs: torch.Tensor  # [F, N, N, 1] 1 on unordered constrained pairs i < j (RFSE)
     no_self: torch.Tensor  # [N, N, 1] +inf on the diagonal, 0 elsewhere
     slots: torch.Tensor  # [2, N, 1] the open-space formation's slots in its frame (leader at the origin facing +x)
+    predecessor: torch.Tensor  # [N] the robot each robot keeps its distance to in the area formation (a chain; 0: none)
 
     @classmethod
     def build(cls, cfg: EnvConfig, device) -> Geometry:
@@ -39,6 +40,7 @@ class Geometry:
             pairs=stack(formations.pair_mask),
             no_self=torch.diag(torch.full((n,), float("inf")))[..., None].to(device),
             slots=formations.slots(cfg.formation, n).float().T[..., None].to(device),
+            predecessor=formations.constraints(cfg.area_formation, n).int().argmax(1).to(device),
         )
 
 
@@ -156,6 +158,13 @@ def step_quantities(
         if err.shape[0] == 2:
             slot = slot.masked_fill(area, 0.0)
         guided[1:] -= rw.follower_slot * slot[1:]
+    if rw.follower_chain_slot:  # one chain spacing behind the robot ahead, along that robot's heading
+        ahead_pos, ahead_vel = pos[:, geom.predecessor], vel[:, geom.predecessor]  # [2, N, B]
+        moving = (_norm(ahead_vel) > 0.05 * cfg.max_speed).unsqueeze(0)
+        way = torch.where(moving, ahead_vel, ahead_pos - pos)
+        way = way / _norm(way).clamp_min(1e-6)
+        chain_slot = _norm(pos - ahead_pos + cfg.area_formation.spacing * way)  # [N, B]
+        guided[1:] -= rw.follower_chain_slot * (chain_slot[1:] * area)
     if rw.proximity:  # a ramp toward every collision, before it happens
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]

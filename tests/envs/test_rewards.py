@@ -373,3 +373,35 @@ def test_follower_velocity_charges_a_follower_its_velocity_gap_to_the_leader():
     assert r[0] == pytest.approx(0.0) and r[1] == pytest.approx(0.0, abs=1e-6) and r[4] == pytest.approx(0.0, abs=1e-6)
     for i in (2, 3):
         assert r[i] < -0.5 and r[i] == pytest.approx(-2.0 * np.linalg.norm(v[i] - v[0]) / cfg.max_speed, abs=1e-5)
+
+
+def test_follower_chain_slot_is_the_distance_to_the_point_behind_the_robot_ahead():
+    """reward.follower_chain_slot: while the chain is active a follower pays w x its distance to the point 0.4 m
+    behind its predecessor (leader, L1, R1, L2) along that robot's heading; from rest, along the line to it, where
+    the term is the chain error; nothing while the V is active."""
+    chain = np.array([[1.0, 0.0], [0.6, 0.0], [0.2, 0.0], [-0.2, 0.0], [-0.6, 0.0]])  # inside the obstacle area
+    team = chain.copy()
+    team[2, 1] += 0.3  # R1 0.3 m beside its slot behind L1
+    team[4] = team[3] + [-0.32, 0.0]  # R2 straight behind L2, 0.08 m short of the chain spacing (no contact)
+
+    def rewards(w, speed, offset=(0.0, 0.0)):
+        cfg = EnvConfig(num_obstacles=1)
+        cfg.reward = RewardConfig(follower_chain_slot=w, leader_distance=0.0, follower_error=0.0)
+        env = FormationEnv(1, config=cfg, seed=0)
+        env.set_world_state(positions=[(team + offset).tolist()], velocities=[[(speed, 0.0)] * 5], goal=[(3.2, 3.2)],
+                            obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
+        td = TensorDict({("agents", "action"): torch.zeros(1, 5, 2)}, batch_size=[1])
+        return env.step(td)["next", "agents", "reward"][0, :, 0].double().numpy()
+
+    moved = team + [0.05, 0.0]  # where the step leaves them, flying along +x at 0.5 m/s
+    behind = moved[[0, 0, 1, 2, 3]] - [0.4, 0.0]
+    expected = -2.0 * np.linalg.norm(moved - behind, axis=-1)
+    expected[0] = 0.0
+    np.testing.assert_allclose(rewards(2.0, 0.5) - rewards(0.0, 0.5), expected, atol=1e-4)
+    at_rest = -2.0 * np.abs(np.linalg.norm(team - team[[0, 0, 1, 2, 3]], axis=-1) - 0.4)  # the chain errors
+    at_rest[0] = 0.0
+    np.testing.assert_allclose(rewards(2.0, 0.0) - rewards(0.0, 0.0), at_rest, atol=1e-4)
+    outside = (-3.0, -3.0)  # the V is active: no term
+    np.testing.assert_allclose(rewards(2.0, 0.5, outside), rewards(0.0, 0.5, outside), atol=1e-6)
+    with pytest.raises(ValueError, match=r"env.reward.follower_chain_slot = 1.0 is invalid"):
+        EnvConfig(reward=RewardConfig(variant="fixed", follower_chain_slot=1.0)).validate()
