@@ -109,8 +109,6 @@ class EnvConfig:
     observe_velocities: bool = False  # followers also see the others' velocities after their positions (a departure)
     observe_distance_errors: bool = False  # ... and then d_ij - d*_ij to each other robot under the active formation,
     #                                        0 for a pair it does not keep (a departure)
-    sort_obstacles: bool = False  # every robot's obstacle block lists the sensed obstacles nearest first (by |p - c_j|),
-    #                               the unsensed after them: one slot learns what four slots split (a departure)
     formation: FormationConfig = field(default_factory=FormationConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
 
@@ -170,7 +168,7 @@ class EnvConfig:
         _check(self.num_obstacles, "num_obstacles", lambda v: isinstance(v, int) and v >= 0, "an integer >= 0")
         _check(self.max_steps, "max_steps", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
         _check(self.placement_tries, "placement_tries", lambda v: isinstance(v, int) and v >= 1, "an integer >= 1")
-        for name in ("relative_positions", "observe_velocities", "observe_distance_errors", "sort_obstacles"):
+        for name in ("relative_positions", "observe_velocities", "observe_distance_errors"):
             _check(getattr(self, name), name, lambda v: isinstance(v, bool), "true or false")
         for name in ("arena_half_size", "robot_radius", "mass", "dt", "max_force", "max_speed", "goal_radius"):
             _check(getattr(self, name), name, _positive, "a finite number > 0")

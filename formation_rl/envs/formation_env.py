@@ -128,8 +128,6 @@ class FormationEnv(EnvBase):
         obs = world.observe(pos, vel, q, self._obs_index)  # [B, N, D]
         if self.config.relative_positions:
             obs = world.make_relative(obs, self.config.observe_velocities)
-        if self.config.sort_obstacles:
-            obs = world.sort_obstacles(obs, 4 + self.config.role_width, self.config.num_obstacles)
         return {
             "observation": obs,
             "reward": q["reward"].T.unsqueeze(-1).contiguous(),  # [B, N, 1]

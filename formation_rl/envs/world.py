@@ -211,20 +211,6 @@ def observe(pos: torch.Tensor, vel: torch.Tensor, q: dict[str, torch.Tensor], in
     return source.index_select(0, index).T.reshape(b, n, -1)
 
 
-def sort_obstacles(obs: torch.Tensor, start: int, m: int) -> torch.Tensor:
-    """Each robot's obstacle block of ``obs`` [B, N, D] (``m`` triples ``(p - c_j, sensed)`` from column ``start``)
-    reordered in place: sensed obstacles nearest first by ``|p - c_j|``, the unsensed (zeros) last.
-
-    ``EnvConfig.sort_obstacles`` (a choice; docs/departures.md): an obstacle's index is its placement order, so
-    without it the same encounter is learned in whichever of the M slots it falls.
-    """
-    block = obs[..., start:start + 3 * m].unflatten(-1, (m, 3))
-    key = torch.where(block[..., 2] > 0, block[..., :2].norm(dim=-1), torch.inf)  # [B, N, M]
-    order = key.argsort(dim=-1, stable=True).unsqueeze(-1).expand(-1, -1, -1, 3)
-    block.copy_(block.gather(2, order))
-    return obs
-
-
 def make_relative(obs: torch.Tensor, velocities: bool = False) -> torch.Tensor:
     """Followers' role blocks of ``obs`` [B, N, D] as positions relative to their own: p_j - p_i, in place
     (and, with ``velocities``, the others' velocities relative to their own: v_j - v_i).

@@ -117,25 +117,6 @@ def test_observe_distance_errors_adds_each_kept_pairs_error_under_the_active_for
     check_env_specs(FormationEnv(4, config=EnvConfig(observe_distance_errors=True, relative_positions=True), seed=0))
 
 
-def test_sort_obstacles_lists_the_sensed_obstacles_nearest_first():
-    """env.sort_obstacles: each robot's obstacle block holds the same triples, the sensed ones nearest first and
-    the unsensed (zeros) after them; everything else is the observation without it."""
-    # robot 0 senses obstacle 1 (|p - c| 0.75, gap 0.15) and obstacle 2 (|p - c| 0.6, gap 0.1); robot 1 only obstacle 2
-    centers = [[[-3.0, -3.0], [1.75, 0.0], [0.4, 0.0]]]
-    state = dict(positions=[[[1.0, 0.0], [0.4, 0.7]]], velocities=[[[0.0, 0.0], [0.0, 0.0]]], goal=[[3.2, 3.1]],
-                 obstacle_centers=centers, obstacle_radii=[[0.5, 0.5, 0.4]])
-    obs = {}
-    for flag in (False, True):
-        cfg = EnvConfig(num_robots=2, num_obstacles=3, sort_obstacles=flag)
-        obs[flag] = FormationEnv(1, config=cfg, seed=0).set_world_state(**state)["agents", "observation"][0]
-    plain, sorted_ = obs[False][:, 6:15].unflatten(-1, (3, 3)), obs[True][:, 6:15].unflatten(-1, (3, 3))
-    assert plain[0, :, 2].tolist() == [0.0, 1.0, 1.0] and plain[1, :, 2].tolist() == [0.0, 0.0, 1.0]
-    torch.testing.assert_close(sorted_[0], plain[0, [2, 1, 0]])
-    torch.testing.assert_close(sorted_[1], plain[1, [2, 0, 1]])
-    assert torch.equal(obs[True][:, :6], obs[False][:, :6]) and torch.equal(obs[True][:, 15:], obs[False][:, 15:])
-    check_env_specs(FormationEnv(4, config=EnvConfig(sort_obstacles=True, relative_positions=True), seed=0))
-
-
 def test_partial_reset_only_touches_flagged_copies():
     env = FormationEnv(3, seed=0)
     td = env.reset()

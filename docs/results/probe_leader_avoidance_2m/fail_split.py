@@ -1,0 +1,45 @@
+"""Why episodes fail, on 400 validation scenarios (seed 1,000,000,007, never the test seed): the share of episodes
+with each cause (they overlap), and the share that fail by that cause alone. Contacts are measured from the world
+state with the metrics' margins (reference.md, Metrics).
+
+    python docs/results/probe_leader_avoidance_2m/fail_split.py CKPT [CKPT ...]   # a policy file, or apf
+"""
+
+import sys
+
+import torch
+
+import formation_rl
+from formation_rl.envs import FormationEnv
+
+for ckpt in sys.argv[1:]:
+    pol = formation_rl.load_policy(ckpt)
+    cfg = pol.env_config
+    env = FormationEnv(400, config=cfg, seed=1_000_000_007)
+    with torch.no_grad():
+        td = env.rollout(cfg.max_steps, policy=pol, break_when_any_done=False)
+    s = td["next", "state"]
+    P = s["positions"]
+    C = s["obstacle_centers"][:, 0]
+    R = s["obstacle_radii"][:, 0]
+    r = cfg.robot_radius
+    ogap = (P[:, :, :, None] - C[:, None, None]).norm(dim=-1) - r - R[:, None, None]
+    ohit = (ogap < 0.1).any(-1)  # [B,T,N]
+    d = (P[:, :, :, None] - P[:, :, None]).norm(dim=-1) - 2 * r
+    N = P.shape[2]
+    d = d + torch.eye(N) * 100
+    rhit = d < 0.1  # [B,T,N,N]
+    at_goal = td["next", "goal_distance"][:, -1, 0] <= 0.05
+    causes = {
+        "leader not at goal": ~at_goal,
+        "leader-obstacle": ohit[:, :, 0].any(1),
+        "follower-obstacle": ohit[:, :, 1:].any(-1).any(1),
+        "robot contact steps 1-5": rhit[:, :5].flatten(2).any(-1).any(1),
+        "robot contact after step 5": rhit[:, 5:].flatten(2).any(-1).any(1),
+    }
+    allc = torch.stack(list(causes.values()), 0)
+    succ = ~allc.any(0)
+    print(ckpt, f"success {succ.float().mean():.1%}")
+    for k, v in causes.items():
+        only = v & (allc.sum(0) == 1)
+        print(f"  {k:28s} {v.float().mean():6.1%}   only cause {only.float().mean():6.1%}")
