@@ -165,6 +165,12 @@ def step_quantities(
         way = way / _norm(way).clamp_min(1e-6)
         chain_slot = _norm(pos - ahead_pos + cfg.area_formation.spacing * way)  # [N, B]
         guided[1:] -= rw.follower_chain_slot * (chain_slot[1:] * area)
+    if rw.leader_speed_cost:  # the leader's speed over the limit where an obstacle can be touched
+        grow = cfg.obstacle_radius_max + r + cfg.obstacle_collision_margin
+        (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
+        near = (px[0] > x0 - grow) & (px[0] < x1 + grow) & (py[0] > y0 - grow) & (py[0] < y1 + grow)  # [B]
+        over = (_norm(vel[:, 0]) - rw.leader_speed_limit).clamp_(min=0)
+        guided[0] -= rw.leader_speed_cost * (over * near)
     if rw.proximity:  # a ramp toward every collision, before it happens
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]
