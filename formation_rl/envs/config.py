@@ -56,15 +56,15 @@ class RewardConfig:
     slot_frame: str = "heading"  # how those slots turn: "heading", with the leader's heading as above; "course",
     #                              along the course from the start square's centre to the goal, a frame that does
     #                              not turn during the episode (ours)
-    follower_chain_slot: float = 0.0  # follower guided += -follower_chain_slot * |p_i - (p_pred - s_chain u_pred)| while
-    #                                   the chain is active: the point one chain spacing behind its predecessor along
-    #                                   that robot's heading u_pred (from rest, slower than 5% of v_max: along the line
-    #                                   from the follower to it, where the term is its chain error); a slot that follows
-    #                                   the way the robot ahead went, not the leader's heading (ours)
+    follower_chain_slot: float = 0.0  # follower guided += -w |p_i - (p_pred - s_chain u_pred)| while the chain is
+    #                                   active: the point one chain spacing behind its predecessor along that robot's
+    #                                   heading u_pred (from rest, slower than 5% of v_max: along the line from the
+    #                                   follower to it, where the term is its chain error); a slot that follows the way
+    #                                   the robot ahead went, not the leader's heading (ours)
     leader_speed_cost: float = 0.0  # leader guided += -leader_speed_cost * max(|v_lea| - leader_speed_limit, 0) while
     #                                 it is where an obstacle can be touched: the obstacle area grown by the largest
-    #                                 obstacle radius, r and rho_o (x in [-3.8, 3.8], y in [-2.8, 2.8] by default), which
-    #                                 the route from start to goal cannot go round in time (ours)
+    #                                 obstacle radius, r and rho_o (x in [-3.8, 3.8], y in [-2.8, 2.8] by default),
+    #                                 which the route from start to goal cannot go round in time (ours)
     leader_speed_limit: float = 0.65  # m/s: that term's threshold (the classical controller crosses at about 0.63)
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)

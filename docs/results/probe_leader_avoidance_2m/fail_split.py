@@ -8,16 +8,11 @@ state with the metrics' margins (reference.md, Metrics).
 import sys
 
 import torch
+from leader_encounters import rollout  # the same 400 validation episodes (this folder is on sys.path)
 
-import formation_rl
-from formation_rl.envs import FormationEnv
 
-for ckpt in sys.argv[1:]:
-    pol = formation_rl.load_policy(ckpt)
-    cfg = pol.env_config
-    env = FormationEnv(400, config=cfg, seed=1_000_000_007)
-    with torch.no_grad():
-        td = env.rollout(cfg.max_steps, policy=pol, break_when_any_done=False)
+def main(ckpt: str) -> None:
+    td, cfg = rollout(ckpt)
     s = td["next", "state"]
     P = s["positions"]
     C = s["obstacle_centers"][:, 0]
@@ -43,3 +38,8 @@ for ckpt in sys.argv[1:]:
     for k, v in causes.items():
         only = v & (allc.sum(0) == 1)
         print(f"  {k:28s} {v.float().mean():6.1%}   only cause {only.float().mean():6.1%}")
+
+
+if __name__ == "__main__":
+    for path in sys.argv[1:]:
+        main(path)

@@ -14,12 +14,18 @@ import torch
 import formation_rl
 from formation_rl.envs import FormationEnv
 
-for ckpt in sys.argv[1:]:
+
+def rollout(ckpt: str):
+    """The policy ``ckpt`` on the 400 validation scenarios: (rollout tensordict [B, T], env config)."""
     pol = formation_rl.load_policy(ckpt)
     cfg = pol.env_config
     env = FormationEnv(400, config=cfg, seed=1_000_000_007)
     with torch.no_grad():
-        td = env.rollout(cfg.max_steps, policy=pol, break_when_any_done=False)
+        return env.rollout(cfg.max_steps, policy=pol, break_when_any_done=False), cfg
+
+
+def main(ckpt: str) -> None:
+    td, cfg = rollout(ckpt)
     s = td["next", "state"]
     P = s["positions"][:, :, 0]
     V = s["velocities"][:, :, 0]  # [B,T,2]
@@ -50,3 +56,8 @@ for ckpt in sys.argv[1:]:
     )
     steps = inside.float().sum(1).mean()
     print(f"  leader speed inside the area: mean {sp.mean():.2f} m/s; steps inside per episode {steps:.1f}")
+
+
+if __name__ == "__main__":
+    for path in sys.argv[1:]:
+        main(path)
