@@ -166,9 +166,8 @@ def step_quantities(
         chain_slot = _norm(pos - ahead_pos + cfg.area_formation.spacing * way)  # [N, B]
         guided[1:] -= rw.follower_chain_slot * (chain_slot[1:] * area)
     if rw.leader_speed_cost:  # the leader's speed over the limit where an obstacle can be touched
-        grow = cfg.obstacle_radius_max + r + cfg.obstacle_collision_margin
-        (x0, x1), (y0, y1) = cfg.obstacle_area_x, cfg.obstacle_area_y
-        near = (px[0] > x0 - grow) & (px[0] < x1 + grow) & (py[0] > y0 - grow) & (py[0] < y1 + grow)  # [B]
+        grow = cfg.obstacle_radius_max + r + cfg.obstacle_collision_margin  # the obstacle area's bounds, grown
+        near = (lx > x0 - grow) & (lx < x1 + grow) & (ly > y0 - grow) & (ly < y1 + grow)  # [B]
         over = (_norm(vel[:, 0]) - rw.leader_speed_limit).clamp_(min=0)
         guided[0] -= rw.leader_speed_cost * (over * near)
     if rw.proximity:  # a ramp toward every collision, before it happens

@@ -19,12 +19,12 @@ def main(ckpt: str) -> None:
     R = s["obstacle_radii"][:, 0]
     r = cfg.robot_radius
     ogap = (P[:, :, :, None] - C[:, None, None]).norm(dim=-1) - r - R[:, None, None]
-    ohit = (ogap < 0.1).any(-1)  # [B,T,N]
+    ohit = (ogap < cfg.obstacle_collision_margin).any(-1)  # [B,T,N]
     d = (P[:, :, :, None] - P[:, :, None]).norm(dim=-1) - 2 * r
     N = P.shape[2]
     d = d + torch.eye(N) * 100
-    rhit = d < 0.1  # [B,T,N,N]
-    at_goal = td["next", "goal_distance"][:, -1, 0] <= 0.05
+    rhit = d < cfg.robot_collision_margin  # [B,T,N,N]
+    at_goal = td["next", "goal_distance"][:, -1, 0] <= cfg.goal_radius
     causes = {
         "leader not at goal": ~at_goal,
         "leader-obstacle": ohit[:, :, 0].any(1),
