@@ -133,8 +133,8 @@ def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing(
 def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
     """recipe=hindsight (`make train`): the paper's hybrid reward and PER-MATD3 with relative positions and the
     others' velocities, R5 = -25 paid by the followers, the formation term doubled, the followers' velocity term,
-    the slot term, the proximity ramp, hindsight goals, 3-step targets, the target actors deployed, bf16 where faster;
-    2M frames."""
+    the slot term, the chain slot, the proximity ramp, hindsight goals, 3-step targets, the target actors deployed,
+    bf16 where faster; 2M frames."""
     from hydra import compose, initialize_config_dir
 
     from formation_rl.training.config import register, validate
@@ -147,9 +147,9 @@ def test_hindsight_recipe_is_the_papers_setup_with_its_kept_departures():
     validate(ours)
     rw, base = ours.env.reward, paper.env.reward
     assert (rw.robot_collision, rw.leader_robot_collision, rw.follower_error, rw.follower_velocity,
-            rw.follower_slot, rw.proximity, rw.proximity_range) == (-25, 0, 2, 1, 2, 1, 0.1)
+            rw.follower_slot, rw.follower_chain_slot, rw.proximity, rw.proximity_range) == (-25, 0, 2, 1, 2, 2, 1, 0.1)
     assert dataclasses.replace(rw, robot_collision=base.robot_collision, leader_robot_collision=1.0, follower_error=1.0,
-                               follower_velocity=0.0, follower_slot=0.0, proximity=0.0,
+                               follower_velocity=0.0, follower_slot=0.0, follower_chain_slot=0.0, proximity=0.0,
                                proximity_range=base.proximity_range) == base  # every other reward field: paper's
     assert ours.env.relative_positions and ours.env.observe_velocities
     assert ours.algo.her == 1.0 and ours.algo.n_steps == 3 and ours.precision == "auto"
