@@ -66,6 +66,8 @@ class RewardConfig:
     #                                 obstacle radius, r and rho_o (x in [-3.8, 3.8], y in [-2.8, 2.8] by default),
     #                                 which the route from start to goal cannot go round in time (ours)
     leader_speed_limit: float = 0.65  # m/s: that term's threshold (the classical controller crosses at about 0.63)
+    leader_speed_floor: float = 0.0  # m/s: ... and the leader pays the same weight x (floor - |v_lea|) below it there:
+    #                                  a band that keeps it from crawling (at cost 10 alone it crossed at 0.35 m/s)
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
@@ -224,6 +226,9 @@ class EnvConfig:
                "a number in [0, 1]")
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")
         _check(r.leader_speed_limit, "reward.leader_speed_limit", _non_negative, "a finite number >= 0")
+        limit = r.leader_speed_limit
+        _check(r.leader_speed_floor, "reward.leader_speed_floor", lambda v: _finite(v) and 0 <= v <= limit,
+               f"a number in [0, reward.leader_speed_limit = {r.leader_speed_limit}]")
         _check(r.start_robot_collision, "reward.start_robot_collision", lambda v: v is None or _finite(v),
                "a finite number or null")
 

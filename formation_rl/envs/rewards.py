@@ -168,8 +168,11 @@ def step_quantities(
     if rw.leader_speed_cost:  # the leader's speed over the limit where an obstacle can be touched
         grow = cfg.obstacle_radius_max + r + cfg.obstacle_collision_margin  # the obstacle area's bounds, grown
         near = (lx > x0 - grow) & (lx < x1 + grow) & (ly > y0 - grow) & (ly < y1 + grow)  # [B]
-        over = (_norm(vel[:, 0]) - rw.leader_speed_limit).clamp_(min=0)
-        guided[0] -= rw.leader_speed_cost * (over * near)
+        speed = _norm(vel[:, 0])
+        off = (speed - rw.leader_speed_limit).clamp_(min=0)
+        if rw.leader_speed_floor:  # ... and its speed under the floor: a band
+            off += (rw.leader_speed_floor - speed).clamp_(min=0)
+        guided[0] -= rw.leader_speed_cost * (off * near)
     if rw.proximity:  # a ramp toward every collision, before it happens
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]
