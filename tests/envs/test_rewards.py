@@ -448,3 +448,46 @@ def test_leader_speed_floor_charges_the_leaders_speed_under_it_where_obstacles_c
             assert extra == pytest.approx(-10.0 * owed if near else 0.0, abs=1e-4), (leader, speed)
     with pytest.raises(ValueError, match=r"env.reward.leader_speed_floor = 0.7 is invalid"):
         EnvConfig(reward=RewardConfig(leader_speed_floor=0.7)).validate()
+
+
+def _closing_rewards(reward, positions, velocities, center=FAR):
+    cfg = EnvConfig(num_robots=2, num_obstacles=1)
+    cfg.reward = reward
+    env = FormationEnv(1, config=cfg, seed=0)
+    env.set_world_state(positions=[positions], velocities=[velocities], goal=[(3.2, 3.2)],
+                        obstacle_centers=[center], obstacle_radii=[(0.5,)])
+    td = TensorDict({("agents", "action"): torch.zeros(1, 2, 2)}, batch_size=[1])
+    return env.step(td)["next", "agents", "reward"][0, :, 0].double().numpy()
+
+
+def test_obstacle_closing_charges_the_speed_toward_a_sensed_obstacle_over_the_limit():
+    """reward.obstacle_closing: a robot pays w x (closing - limit) for each obstacle it senses after the step, closing
+    its speed toward the obstacle's centre; nothing moving past it, nothing for an obstacle out of sensing range."""
+    def extra(leader, v, center):
+        args = ([leader, (-3.0, -3.0)], [v, (0.0, 0.0)], [center])
+        return (_closing_rewards(RewardConfig(obstacle_closing=10.0, closing_limit=0.3), *args)
+                - _closing_rewards(RewardConfig(), *args))
+
+    # head-on at 0.85 m/s (zero action keeps it): 0.715 m from the centre after the step, gap 0.115 m: sensed
+    np.testing.assert_allclose(extra((0.0, 0.0), (0.85, 0.0), (0.8, 0.0)), [-10.0 * 0.55, 0.0], atol=1e-4)
+    np.testing.assert_allclose(extra((0.0, 0.0), (0.0, 0.85), (0.8, 0.0)), [0.0, 0.0], atol=1e-6)  # past it
+    np.testing.assert_allclose(extra((0.0, 0.0), (0.85, 0.0), (1.0, 0.0)), [0.0, 0.0], atol=1e-6)  # gap 0.315
+    with pytest.raises(ValueError, match=r"env.reward.closing_limit = -1 is invalid"):
+        EnvConfig(reward=RewardConfig(closing_limit=-1)).validate()
+
+
+def test_robot_closing_charges_two_robots_near_contact_closing_faster_than_the_limit():
+    """reward.robot_closing: robots within closing_range of a contact pay w x (relative closing speed - limit), the
+    leader its leader_robot_collision share; nothing beyond that range."""
+    def extra(follower, leader_share=1.0):
+        args = ([(0.0, 0.0), follower], [(0.0, 0.0), (0.6, 0.0)])
+        charged = RewardConfig(robot_closing=10.0, closing_limit=0.3, leader_robot_collision=leader_share)
+        return (_closing_rewards(charged, *args)
+                - _closing_rewards(RewardConfig(leader_robot_collision=leader_share), *args))
+
+    # under 0.5 m apart after the step, inside 0.3 + 0.2 m, and off the V's 0.5 m (no R2 event); closing at 0.6 m/s
+    np.testing.assert_allclose(extra((-0.52, 0.0)), [-3.0, -3.0], atol=1e-4)
+    np.testing.assert_allclose(extra((-0.52, 0.0), leader_share=0.0), [0.0, -3.0], atol=1e-4)
+    np.testing.assert_allclose(extra((-0.7, 0.0)), [0.0, 0.0], atol=1e-6)  # 0.64 m apart: out of range
+    with pytest.raises(ValueError, match=r"env.reward.closing_range = 0 is invalid"):
+        EnvConfig(reward=RewardConfig(closing_range=0)).validate()
