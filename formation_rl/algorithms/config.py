@@ -17,9 +17,6 @@ class AlgoConfig:
     prioritized: bool = True  # PER (section 3.3)
     alpha: float = 0.6  # priority exponent (paper)
     beta: float = 0.5  # importance-sampling exponent (paper)
-    priority_norm: bool = False  # each robot's |delta| over its running mean (EMA, rate 0.01) before eq. 17's max
-    #                              over robots, so that every robot's surprises are replayed, not the largest-scale
-    #                              robot's (ours; re-estimated after a resume); false: the paper's max of raw errors
     priority_eps: float = 1e-6  # p = (max |delta| + eps)^alpha (choice)
     lr_actor: float = 1e-3  # (paper)
     lr_critic: float = 1e-3  # (paper)

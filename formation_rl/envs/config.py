@@ -61,13 +61,6 @@ class RewardConfig:
     #                                   heading u_pred (from rest, slower than 5% of v_max: along the line from the
     #                                   follower to it, where the term is its chain error); a slot that follows the way
     #                                   the robot ahead went, not the leader's heading (ours)
-    leader_speed_cost: float = 0.0  # leader guided += -leader_speed_cost * max(|v_lea| - leader_speed_limit, 0) while
-    #                                 it is where an obstacle can be touched: the obstacle area grown by the largest
-    #                                 obstacle radius, r and rho_o (x in [-3.8, 3.8], y in [-2.8, 2.8] by default),
-    #                                 which the route from start to goal cannot go round in time (ours)
-    leader_speed_limit: float = 0.65  # m/s: that term's threshold (the classical controller crosses at about 0.63)
-    leader_speed_floor: float = 0.0  # m/s: ... and the leader pays the same weight x (floor - |v_lea|) below it there:
-    #                                  a band that keeps it from crawling (at cost 10 alone it crossed at 0.35 m/s)
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
@@ -221,7 +214,7 @@ class EnvConfig:
             _check_formation(r.area_formation, "reward.area_formation")
         for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
                      "leader_distance", "leader_progress", "follower_error", "follower_progress", "follower_velocity",
-                     "leader_team", "follower_slot", "follower_chain_slot", "leader_speed_cost", "proximity",
+                     "leader_team", "follower_slot", "follower_chain_slot", "proximity",
                      "obstacle_closing", "robot_closing"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
@@ -236,10 +229,6 @@ class EnvConfig:
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")
         _check(r.closing_limit, "reward.closing_limit", _non_negative, "a finite number >= 0")
         _check(r.closing_range, "reward.closing_range", _positive, "a finite number > 0")
-        _check(r.leader_speed_limit, "reward.leader_speed_limit", _non_negative, "a finite number >= 0")
-        limit = r.leader_speed_limit
-        _check(r.leader_speed_floor, "reward.leader_speed_floor", lambda v: _finite(v) and 0 <= v <= limit,
-               f"a number in [0, reward.leader_speed_limit = {r.leader_speed_limit}]")
         _check(r.start_robot_collision, "reward.start_robot_collision", lambda v: v is None or _finite(v),
                "a finite number or null")
 

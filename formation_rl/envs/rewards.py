@@ -165,14 +165,6 @@ def step_quantities(
         way = way / _norm(way).clamp_min(1e-6)
         chain_slot = _norm(pos - ahead_pos + cfg.area_formation.spacing * way)  # [N, B]
         guided[1:] -= rw.follower_chain_slot * (chain_slot[1:] * area)
-    if rw.leader_speed_cost:  # the leader's speed over the limit where an obstacle can be touched
-        grow = cfg.obstacle_radius_max + r + cfg.obstacle_collision_margin  # the obstacle area's bounds, grown
-        near = (lx > x0 - grow) & (lx < x1 + grow) & (ly > y0 - grow) & (ly < y1 + grow)  # [B]
-        speed = _norm(vel[:, 0])
-        off = (speed - rw.leader_speed_limit).clamp_(min=0)
-        if rw.leader_speed_floor:  # ... and its speed under the floor: a band
-            off += (rw.leader_speed_floor - speed).clamp_(min=0)
-        guided[0] -= rw.leader_speed_cost * (off * near)
     if rw.proximity:  # a ramp toward every collision, before it happens
         reach = rw.proximity_range
         robot_clear = (dist + geom.no_self) - (2 * r + cfg.robot_collision_margin)  # [N, N, B]

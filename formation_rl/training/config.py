@@ -81,7 +81,6 @@ def validate(cfg: TrainConfig) -> None:
         check(getattr(a, name) > 0, f"algo.{name}", getattr(a, name), "> 0")
     for name in ("gamma", "tau", "alpha", "beta"):
         check(0 <= getattr(a, name) <= 1, f"algo.{name}", getattr(a, name), "in [0, 1]")
-    check(isinstance(a.priority_norm, bool), "algo.priority_norm", a.priority_norm, "true or false")
     check(a.priority_eps > 0, "algo.priority_eps", a.priority_eps, "> 0")
     check(a.policy_noise >= 0 and a.noise_clip >= 0, "algo.policy_noise", a.policy_noise, ">= 0 (noise_clip too)")
     check(a.policy_delay >= 1, "algo.policy_delay", a.policy_delay, "an integer >= 1")

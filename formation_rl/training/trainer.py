@@ -62,7 +62,6 @@ class Trainer:
         cfg.env.validate()
         cfg = dataclasses.replace(cfg, precision=resolve_precision(cfg.precision, cfg.device))
         self.cfg, self.run_dir = cfg, Path(run_dir)
-        self._error_scale: torch.Tensor | None = None  # algo.priority_norm: each robot's running mean |delta|
         _check_writable(self.run_dir)
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
@@ -205,19 +204,11 @@ class Trainer:
             out = self.algo.update(batch)  # writes |delta| [B, N] at PRIORITY_KEY
         if self.cfg.algo.prioritized:
             with self.timings("priority"):
-                if self.cfg.algo.priority_norm:
-                    batch.set(PRIORITY_KEY, self._normalised_errors(batch.get(PRIORITY_KEY)))
                 self.buffer.update_tensordict_priority(batch)  # reduction max over robots (eq. 17)
             out["priority_mean"] = batch.get(PRIORITY_KEY).amax(-1).mean()
             out["priority_max"] = batch.get(PRIORITY_KEY).max()
             out["weight_mean"] = batch.get(WEIGHT_KEY).mean()
         return out
-
-    def _normalised_errors(self, err: torch.Tensor) -> torch.Tensor:
-        """``algo.priority_norm``: ``|delta|`` ``[B, N]`` over each robot's running mean of it (EMA, rate 0.01)."""
-        scale = err.mean(0)
-        self._error_scale = scale if self._error_scale is None else self._error_scale.lerp(scale, 0.01)
-        return err / self._error_scale.clamp_min(1e-6)
 
     # ------------------------------------------------------------------ evaluation
     @torch.no_grad()

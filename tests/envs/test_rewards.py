@@ -407,49 +407,6 @@ def test_follower_chain_slot_is_the_distance_to_the_point_behind_the_robot_ahead
         EnvConfig(reward=RewardConfig(variant="fixed", follower_chain_slot=1.0)).validate()
 
 
-def test_leader_speed_cost_charges_the_leaders_speed_over_the_limit_where_obstacles_can_be_met():
-    """reward.leader_speed_cost: the leader pays w x (|v| - limit) per step while it is within the obstacle area
-    grown by 0.8 m (the largest radius, r and rho_o): x in [-3.8, 3.8], y in [-2.8, 2.8]; nothing below the limit,
-    nothing outside that region, nothing for the followers."""
-    def rewards(w, leader, speed):
-        cfg = EnvConfig(num_robots=2, num_obstacles=1)
-        cfg.reward = RewardConfig(leader_speed_cost=w, leader_speed_limit=0.65)
-        env = FormationEnv(1, config=cfg, seed=0)
-        follower = [leader[0] - 1.0, leader[1]]
-        env.set_world_state(positions=[[leader, follower]], velocities=[[(speed, 0.0), (0.0, 0.0)]],
-                            goal=[(3.2, 3.2)], obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
-        td = TensorDict({("agents", "action"): torch.zeros(1, 2, 2)}, batch_size=[1])
-        return env.step(td)["next", "agents", "reward"][0, :, 0].double().numpy()
-
-    for leader, near in (((-3.5, -2.5), True), ((2.0, 2.6), True), ((-3.5, -3.2), False), ((3.2, 3.0), False)):
-        extra = rewards(10.0, leader, 0.85) - rewards(0.0, leader, 0.85)
-        np.testing.assert_allclose(extra, [-10.0 * 0.2 if near else 0.0, 0.0], atol=1e-4)
-        np.testing.assert_allclose(rewards(10.0, leader, 0.6), rewards(0.0, leader, 0.6), atol=1e-6)
-    with pytest.raises(ValueError, match=r"env.reward.leader_speed_limit = -0.1 is invalid"):
-        EnvConfig(reward=RewardConfig(leader_speed_limit=-0.1)).validate()
-
-
-def test_leader_speed_floor_charges_the_leaders_speed_under_it_where_obstacles_can_be_met():
-    """reward.leader_speed_floor: with the speed cost, the leader also pays w x (floor - |v|) in the same region: a
-    band [floor, limit] where it pays nothing; outside the region, nothing."""
-    def rewards(w, leader, speed):
-        cfg = EnvConfig(num_robots=2, num_obstacles=1)
-        cfg.reward = RewardConfig(leader_speed_cost=w, leader_speed_limit=0.75, leader_speed_floor=0.6)
-        env = FormationEnv(1, config=cfg, seed=0)
-        env.set_world_state(positions=[[leader, [leader[0] - 1.0, leader[1]]]],
-                            velocities=[[(speed, 0.0), (0.0, 0.0)]], goal=[(3.2, 3.2)],
-                            obstacle_centers=[FAR], obstacle_radii=[(0.5,)])
-        td = TensorDict({("agents", "action"): torch.zeros(1, 2, 2)}, batch_size=[1])
-        return env.step(td)["next", "agents", "reward"][0, 0, 0].item()
-
-    for leader, near in (((0.0, 0.0), True), ((-3.5, -3.2), False)):
-        for speed, owed in ((0.2, 0.4), (0.65, 0.0), (0.85, 0.1)):
-            extra = rewards(10.0, leader, speed) - rewards(0.0, leader, speed)  # zero action: the speed is kept
-            assert extra == pytest.approx(-10.0 * owed if near else 0.0, abs=1e-4), (leader, speed)
-    with pytest.raises(ValueError, match=r"env.reward.leader_speed_floor = 0.7 is invalid"):
-        EnvConfig(reward=RewardConfig(leader_speed_floor=0.7)).validate()
-
-
 def _closing_rewards(reward, positions, velocities, center=FAR):
     cfg = EnvConfig(num_robots=2, num_obstacles=1)
     cfg.reward = reward

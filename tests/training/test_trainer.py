@@ -144,22 +144,3 @@ def test_her_stores_hindsight_copies_of_the_chosen_env_copies(tmp_path):
     cfg.algo.her = -0.1
     with pytest.raises(ValueError, match=r"^algo.her = -0.1 is invalid: must be in \[0, 1\]"):
         Trainer(cfg, tmp_path / "bad")
-
-
-def test_priority_norm_replays_by_each_robots_error_over_its_running_mean(tmp_path):
-    """algo.priority_norm: the priorities the buffer gets are |delta| over each robot's running mean (EMA, rate
-    0.01, from the first batch on), so a robot with small errors has its surprises replayed as often as one with
-    large errors; off, the raw errors as before."""
-    cfg = tiny()
-    cfg.algo.priority_norm = True
-    trainer = Trainer(cfg, tmp_path)
-    first = torch.tensor([[1.0, 10.0, 100.0], [3.0, 30.0, 300.0]])
-    torch.testing.assert_close(trainer._normalised_errors(first), torch.tensor([[0.5, 0.5, 0.5], [1.5, 1.5, 1.5]]))
-    second = torch.tensor([[102.0, 20.0, 200.0], [102.0, 20.0, 200.0]])
-    scale = torch.tensor([2.0, 20.0, 200.0]) * 0.99 + torch.tensor([102.0, 20.0, 200.0]) * 0.01
-    torch.testing.assert_close(trainer._normalised_errors(second), second / scale)
-    trainer.train()  # the whole loop with it
-    assert trainer._error_scale.shape == (3,) and (trainer._error_scale > 0).all()
-    cfg.algo.priority_norm = "yes"
-    with pytest.raises(ValueError, match=r"^algo.priority_norm = 'yes' is invalid: must be true or false"):
-        Trainer(cfg, tmp_path / "bad")
