@@ -84,6 +84,18 @@ def test_unknown_field_and_bad_num_envs():
         FormationEnv(0)
 
 
+def test_removed_fields_load_at_their_off_value_and_name_their_commit_otherwise():
+    """A checkpoint of an earlier version names fields removed since (RETIRED): at their off value they are dropped,
+    so the policy loads; at another value the one-line error names the commit that has the option."""
+    old = dataclasses.asdict(EnvConfig())
+    old["sort_obstacles"] = False
+    old["reward"] = dict(old["reward"], leader_speed_cost=0.0, leader_speed_limit=0.75, leader_speed_floor=0.0)
+    assert EnvConfig.from_dict(old) == EnvConfig()
+    old["reward"]["leader_speed_cost"] = 10.0
+    with pytest.raises(ValueError, match=r"^env.reward.leader_speed_cost = 10.0: this option was removed .* 415502c"):
+        EnvConfig.from_dict(old)
+
+
 def test_config_dict_and_omegaconf_equivalent():
     node = OmegaConf.create({"num_robots": 3, "formation": {"shape": "chain", "spacing": 0.3}})
     plain = {"num_robots": 3, "formation": {"shape": "chain", "spacing": 0.3}}
