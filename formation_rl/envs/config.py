@@ -64,14 +64,6 @@ class RewardConfig:
     proximity: float = 0.0  # every robot's guided += -proximity * sum over robots and obstacles closer than
     #                         proximity_range to a collision of (1 - clearance / proximity_range) (ours)
     proximity_range: float = 0.2  # m, clearance (gap beyond the collision margin) where that penalty starts
-    obstacle_closing: float = 0.0  # every robot's guided += -obstacle_closing * sum over the obstacles it senses of
-    #                                max(closing - closing_limit, 0), closing = its speed toward the obstacle's centre:
-    #                                what it sees, priced the step it moves (the controller brakes above 0.2; ours)
-    robot_closing: float = 0.0  # follower guided += -robot_closing * sum over the robots within closing_range of a
-    #                             contact of max(closing - closing_limit, 0), closing = their relative speed toward
-    #                             each other (the leader pays its leader_robot_collision share of it; ours)
-    closing_limit: float = 0.3  # m/s: the closing speed those terms allow
-    closing_range: float = 0.2  # m: clearance (centre distance beyond 2r + the robot margin) where robot_closing starts
     scale: float = 1.0  # every reward (guided and sparse) times this
     own_progress: bool = False  # follower_progress counts the follower's own move only: its error with the others
     #                             where they are now, from where it was to where it is (a difference reward, ours);
@@ -214,8 +206,7 @@ class EnvConfig:
             _check_formation(r.area_formation, "reward.area_formation")
         for name in ("goal", "formation_open", "formation_area", "obstacle_collision", "robot_collision",
                      "leader_distance", "leader_progress", "follower_error", "follower_progress", "follower_velocity",
-                     "leader_team", "follower_slot", "follower_chain_slot", "proximity",
-                     "obstacle_closing", "robot_closing"):
+                     "leader_team", "follower_slot", "follower_chain_slot", "proximity"):
             _check(getattr(r, name), f"reward.{name}", _finite, "a finite number")
         _check(r.tolerance, "reward.tolerance", _non_negative, "a finite number >= 0")
         _check(r.scale, "reward.scale", _positive, "a finite number > 0")
@@ -227,8 +218,6 @@ class EnvConfig:
         _check(r.leader_robot_collision, "reward.leader_robot_collision", lambda v: _finite(v) and 0 <= v <= 1,
                "a number in [0, 1]")
         _check(r.proximity_range, "reward.proximity_range", _positive, "a finite number > 0")
-        _check(r.closing_limit, "reward.closing_limit", _non_negative, "a finite number >= 0")
-        _check(r.closing_range, "reward.closing_range", _positive, "a finite number > 0")
         _check(r.start_robot_collision, "reward.start_robot_collision", lambda v: v is None or _finite(v),
                "a finite number or null")
 
@@ -241,6 +230,10 @@ RETIRED = {
     "env.reward.leader_speed_cost": (0.0, "415502c"),
     "env.reward.leader_speed_limit": (None, "415502c"),
     "env.reward.leader_speed_floor": (0.0, "415502c"),
+    "env.reward.obstacle_closing": (0.0, "40a14df"),
+    "env.reward.robot_closing": (0.0, "40a14df"),
+    "env.reward.closing_limit": (None, "40a14df"),
+    "env.reward.closing_range": (None, "40a14df"),
 }
 
 

@@ -174,19 +174,6 @@ def step_quantities(
             robot_ramp[0] *= rw.leader_robot_collision
         ramp = robot_ramp + (1 - obstacle_clear / reach).clamp_(min=0).sum(1)
         guided -= rw.proximity * ramp
-    if rw.obstacle_closing:  # speed toward a sensed obstacle's centre over the limit
-        toward = -(vel[0][:, None] * ox + vel[1][:, None] * oy) / (gap + radii[None] + r).clamp_min(1e-6)  # [N, M, B]
-        over = (toward - rw.closing_limit).clamp_(min=0) * sensed
-        guided -= rw.obstacle_closing * over.sum(1)
-    if rw.robot_closing:  # two robots near contact closing on each other faster than the limit
-        dx, dy = px[:, None] - px[None], py[:, None] - py[None]  # [N, N, B], p_i - p_j
-        dvx, dvy = vel[0][:, None] - vel[0][None], vel[1][:, None] - vel[1][None]
-        toward = -(dvx * dx + dvy * dy) / dist.clamp_min(1e-6)
-        near = (dist + geom.no_self) < 2 * r + cfg.robot_collision_margin + rw.closing_range
-        robot_over = ((toward - rw.closing_limit).clamp_(min=0) * near).sum(1)  # [N, B]
-        if rw.leader_robot_collision != 1.0:
-            robot_over[0] *= rw.leader_robot_collision
-        guided -= rw.robot_closing * robot_over
     if progress:
         unit = cfg.max_speed * cfg.dt  # the most a robot moves in a step
         guided[1:] += (prev_follower_err[1:] - follower_err[1:]) * (rw.follower_progress / unit)
