@@ -50,8 +50,9 @@ def main(cfg: DictConfig) -> float:
     trainer = Trainer(to_train_config(cfg), run_dir)
     if cfg.precision == "auto":
         speed = bf16_speedup(cfg.device)
+        why = (f"bf16 GEMM {speed:.2f}x fp32's speed here" if speed > 0 else "no native bf16 here")
         log.info(f"precision=auto: {trainer.cfg.precision} on this {cfg.device} "
-                 f"(bf16 GEMM {speed:.2f}x fp32's speed here; bf16_targets from {BF16_MIN_SPEEDUP}x)")
+                 f"({why}; bf16_targets from {BF16_MIN_SPEEDUP}x)")
     if cfg.resume:
         trainer.load_checkpoint(cfg.resume)
     metrics = trainer.train()
