@@ -154,8 +154,7 @@ class Algorithm:
         return self.loss.value_loss(batch)
 
     def _actor_loss(self, batch: TensorDictBase):
-        """``-mean_i Q_i(o, a_1..mu_i(o_i)..a_N) + action_reg * mean(u^2)``, u the actors' pre-tanh outputs
-        (``relu(|u| - action_reg_from)`` in place of u where ``action_reg_from > 0``).
+        """``-mean_i Q_i(o, a_1..mu_i(o_i)..a_N) + action_reg * mean(u^2)``, u the actors' pre-tanh outputs.
 
         Written here rather than taken from ``TD3Loss.actor_loss`` / ``DDPGLoss.loss_actor`` for two
         reasons: TD3 climbs the first critic only, and TorchRL evaluates every twin critic and keeps
@@ -182,8 +181,7 @@ class Algorithm:
             actor_loss = actor_loss / q.abs().mean().detach().clamp_min(1e-6)
             actor_loss = actor_loss + self.cfg.bc_weight * (action - anchor).pow(2).mean()
         if self.cfg.action_reg > 0:
-            excess = (pre.abs() - self.cfg.action_reg_from).clamp_min(0) if self.cfg.action_reg_from > 0 else pre
-            actor_loss = actor_loss + self.cfg.action_reg * excess.pow(2).mean()
+            actor_loss = actor_loss + self.cfg.action_reg * pre.pow(2).mean()
         return actor_loss, {"q_actor": q.detach()}
 
     def _actor_critic(self):

@@ -32,8 +32,6 @@ class AlgoConfig:
     #                   one-step target (eq. 7); episodes and collector batches cut it short
     action_reg: float = 1e-3  # actor loss += action_reg * mean(pre-tanh^2), against tanh saturation (choice:
     #                           the MADDPG reference implementation's value; 0 turns it off)
-    action_reg_from: float = 0.0  # > 0: the penalty counts only the pre-tanh excess, mean(relu(|u| - from)^2), so
-    #                               actions up to tanh(from) cost nothing (ours; 0: all of u, the reference's)
     warmup_frames: int = 10_000  # frames collected before the first update (choice)
     bc_weight: float = 0.0  # > 0: the actor loss becomes -Q / mean|Q| + bc_weight * mean((a - apf(o))^2) on every
     #                         batch (TD3+BC's form, the classical controller as the anchor); 0: the paper's -Q

@@ -89,7 +89,6 @@ def validate(cfg: TrainConfig) -> None:
     check(a.update_every >= 1, "algo.update_every", a.update_every, "an integer >= 1")
     check(a.n_steps >= 1, "algo.n_steps", a.n_steps, "an integer >= 1")
     check(a.action_reg >= 0, "algo.action_reg", a.action_reg, ">= 0")
-    check(a.action_reg_from >= 0, "algo.action_reg_from", a.action_reg_from, ">= 0")
     check(a.warmup_frames >= 0, "algo.warmup_frames", a.warmup_frames, ">= 0")
     check(a.critic_warmup_steps >= 0, "algo.critic_warmup_steps", a.critic_warmup_steps, "an integer >= 0")
     check(a.bc_weight >= 0, "algo.bc_weight", a.bc_weight, ">= 0")

@@ -211,20 +211,3 @@ def test_own_only_leader_critic_stays_own_only_through_updates():
     q1 = q_values(algo, algo.loss.qvalue_network_params, other)
     torch.testing.assert_close(q1[..., 0], q0[..., 0])  # leader: unchanged
     assert ((q1[..., 1:] - q0[..., 1:]).abs() > 1e-6).any()
-
-
-def test_action_reg_from_prices_only_the_pre_tanh_excess():
-    batch = make_batch(64)
-    algo = matd3(action_reg=0.0)
-    net = algo.loss.actor_network
-    with torch.no_grad(), algo.loss.actor_network_params.to_module(net):
-        pre = net.module[0](batch["agents", "observation"])  # the actors' pre-tanh outputs
-    pre_abs = pre.abs()
-    cut = pre_abs.median().item()  # half the components beyond it
-    base = algo._actor_loss(batch.clone())[0]
-    for reg_from, expected in ((0.0, pre.pow(2).mean()), (cut, (pre_abs - cut).clamp_min(0).pow(2).mean()),
-                               (pre_abs.max().item() + 1, torch.tensor(0.0))):
-        algo.cfg.action_reg, algo.cfg.action_reg_from = 0.5, reg_from
-        got = algo._actor_loss(batch.clone())[0] - base
-        torch.testing.assert_close(got, 0.5 * expected, atol=1e-6, rtol=1e-5)
-    assert 0 < (pre_abs - cut).clamp_min(0).pow(2).mean() < pre.pow(2).mean()
