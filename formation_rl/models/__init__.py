@@ -3,6 +3,7 @@
 from formation_rl.models.networks import (
     CentralizedCritic,
     PerRobotMLP,
+    SharedTrunkCritic,
     bf16_speedup,
     bf16_supported,
     make_actor,
@@ -12,6 +13,7 @@ from formation_rl.models.networks import (
 
 __all__ = [
     "CentralizedCritic",
+    "SharedTrunkCritic",
     "PerRobotMLP",
     "bf16_speedup",
     "bf16_supported",
