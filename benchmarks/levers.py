@@ -14,7 +14,6 @@ thread it is the step's own compute time).
 from __future__ import annotations
 
 import argparse
-import functools
 import logging
 import random
 import statistics
@@ -67,8 +66,6 @@ LEVERS = {
                                                                           _AutogradReLU),
     "the joint layer's output left strided (hand-written layers; bf16 paths)": (networks, "_group_major",
                                                                                 _strided_group_major),
-    "the followers' critics on one shared trunk (model.critic_trunk=followers)": (
-        tt, "make_critic", functools.partial(networks.make_critic, trunk="followers")),
 }
 PRECISION_VARIANTS = {  # label: (precision, patched to the autograd layers)
     "fp32, autograd layers (before)": ("fp32", True),

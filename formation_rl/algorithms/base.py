@@ -173,7 +173,7 @@ class Algorithm:
         action = net.squash(obs, pre) if residual else torch.tanh(pre)
         critic_module, critic_params = self._actor_critic()
         with critic_params.to_module(critic_module, preserve_module_state=False):
-            q = critic_module.module(obs, action, own_action_grad=True)  # [B, N, 1]; gradient only through a_i into Q_i
+            q = critic_module.module(obs, action)  # [B, N, 1]; gradient only through a_i into Q_i
         actor_loss = -q.mean()
         if self.anchor is not None and self.cfg.bc_weight > 0:  # TD3+BC: -Q / mean|Q| + w * (a - a_anchor)^2
             with torch.no_grad():

@@ -3,7 +3,6 @@
 from formation_rl.models.networks import (
     CentralizedCritic,
     PerRobotMLP,
-    SharedTrunkCritic,
     bf16_speedup,
     bf16_supported,
     make_actor,
@@ -13,7 +12,6 @@ from formation_rl.models.networks import (
 
 __all__ = [
     "CentralizedCritic",
-    "SharedTrunkCritic",
     "PerRobotMLP",
     "bf16_speedup",
     "bf16_supported",

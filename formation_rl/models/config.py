@@ -16,8 +16,5 @@ class ModelConfig:
     leader_critic: str = "joint"  # joint: the paper's centralized critic for every robot | own: the leader's critic
     #                               reads its own observation and action only (ours; for rewards where the leader
     #                               answers for nothing the followers do, env.reward.leader_robot_collision=0)
-    critic_trunk: str = "per_robot"  # per_robot: every robot's critic an MLP of its own (paper) | followers: the
-    #                                  followers' critics share one trunk over the joint input, a linear head each, the
-    #                                  leader's its own MLP (ours: half the gradient step's time here)
     critic_layer_norm: str = "none"  # leader: layer normalisation (no affine) before every hidden ReLU of the leader's
     #                                  critic | none (every critic: not kept, docs/RESULTS.md "Layer normalisation ...")

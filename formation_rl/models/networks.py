@@ -346,10 +346,7 @@ class CentralizedCritic(nn.Module):
                 self.mlp.weights[0][list(own_only)] *= math.sqrt(n)
         self.register_buffer("input_mask", mask)  # None: every critic reads everything
 
-    def forward(self, observation: torch.Tensor, action: torch.Tensor, own_action_grad: bool | None = None
-                ) -> torch.Tensor:
-        """``own_action_grad``: unused (the actions' gradient path is there whenever one may flow, ``_may_need_grad``);
-        the argument :class:`SharedTrunkCritic` needs, accepted here so the actor loss calls both alike."""
+    def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         lead, (n, d) = observation.shape[:-2], observation.shape[-2:]
         act = action.reshape(-1, n, 2)
         dead = act.detach()
@@ -374,85 +371,6 @@ class CentralizedCritic(nn.Module):
             h = self.mlp.activation(self.mlp.norm(h))
         h = self.mlp.layers_from(h, 1)  # [N, B, 1]
         return h.transpose(0, 1).reshape(*lead, n, 1)
-
-
-class SharedTrunkCritic(nn.Module):
-    """Q_i(o_1..o_N, a_1..a_N) for every robot i, as :class:`CentralizedCritic` computes it, but the robots not in
-    ``own`` share one trunk over the joint input, each with a linear head of its own; the ``own`` robots keep an
-    MLP each (``model.critic_trunk``; ours, not the paper's: its per-robot critics cost 5x the gradient step's
-    multiply-adds of one trunk at the same width).
-
-    Critic i's gradient reaches the actions through a_i only, as in MADDPG: with ``own_action_grad`` (the actor
-    step) the first layer, linear in the actions, is computed once on the detached joint input and robot j's pass
-    adds ``(a_j - sg(a_j)) W^(a_j)`` (zero in value), so the deeper layers run once per shared robot; without it
-    (the critic step and its targets, where no gradient reaches the actions) the trunk runs once for all of them.
-    """
-
-    def __init__(self, num_robots: int, obs_dim: int, action_dim: int = 2, hidden: tuple[int, ...] = (128, 128),
-                 activation: str = "relu", own: tuple[int, ...] = (0,), layer_norm: tuple[int, ...] = ()):
-        super().__init__()
-        if activation not in ACTIVATIONS:
-            raise ValueError(f"model.activation = {activation!r} is invalid: must be one of {', '.join(ACTIVATIONS)}")
-        n, in_features = num_robots, num_robots * (obs_dim + action_dim)
-        self.num_robots, self.obs_dim, self.action_dim = n, obs_dim, action_dim
-        self.own = tuple(sorted(own))
-        self.shared = tuple(i for i in range(n) if i not in self.own)
-        self.own_mlp = (PerRobotMLP(len(self.own), in_features, 1, hidden, activation,
-                                    tuple(self.own.index(i) for i in layer_norm if i in self.own))
-                        if self.own else None)
-        sizes = [in_features, *hidden]
-        self.trunk = nn.ModuleList(nn.Linear(a, b) for a, b in zip(sizes[:-1], sizes[1:], strict=True))
-        m, width = len(self.shared), hidden[-1]
-        bound = 1.0 / math.sqrt(width)  # nn.Linear's initialisation, per head
-        self.head_weight = nn.Parameter(torch.empty(m, width, 1).uniform_(-bound, bound))
-        self.head_bias = nn.Parameter(torch.empty(m, 1, 1).uniform_(-bound, bound))
-        self.activation = ACTIVATIONS[activation]()
-        self.compute_dtype: torch.dtype | None = None  # the trunk's hidden layers: as PerRobotMLP's (set_precision)
-        self.target_dtype: torch.dtype | None = None
-        # robot order of [own..., shared...] (a list, not a buffer: a buffer would join the loss's parameters)
-        self.order = torch.argsort(torch.tensor(self.own + self.shared)).tolist()
-
-    hidden_dtype = PerRobotMLP.hidden_dtype  # the trunk's dtype for the pass now running, as the MLPs'
-
-    def _action_rows(self, robots: tuple[int, ...]) -> torch.Tensor:
-        """The joint input's rows of each robot's action, ``[len(robots), action_dim]``."""
-        base = self.num_robots * self.obs_dim
-        return torch.tensor([[base + self.action_dim * i + k for k in range(self.action_dim)] for i in robots])
-
-    def forward(self, observation: torch.Tensor, action: torch.Tensor, own_action_grad: bool = False) -> torch.Tensor:
-        lead, (n, d) = observation.shape[:-2], observation.shape[-2:]
-        act = action.reshape(-1, n, self.action_dim)
-        dead = act.detach() if own_action_grad else act
-        joint = torch.cat([observation.reshape(-1, n * d), dead.reshape(-1, n * self.action_dim)], -1)
-        live = (act - dead).transpose(0, 1) if own_action_grad else None  # [N, B, 2], zero in value
-        parts = []
-        if self.own_mlp is not None:
-            mlp, k = self.own_mlp, len(self.own)
-            w1, b1 = mlp.weights[0], mlp.biases[0]  # [k, in, H], [k, 1, H]
-            width = w1.shape[-1]
-            h = torch.addmm(b1.reshape(k * width), joint, w1.permute(1, 0, 2).reshape(-1, k * width))
-            h = h.view(-1, k, width).transpose(0, 1)  # [k, B, H]
-            if live is not None:
-                rows = self._action_rows(self.own).to(w1.device)
-                w_own = w1[torch.arange(k, device=w1.device)[:, None], rows]  # [k, 2, H]
-                h = torch.baddbmm(h, live[list(self.own)], w_own)
-            parts.append(mlp.layers_from(mlp.activation(mlp.norm(h)), 1))  # [k, B, 1]
-        if self.shared:
-            first = self.trunk[0]
-            with _hidden_autocast(joint, self.hidden_dtype()):
-                h = first(joint)  # [B, H]
-                if live is not None:  # robot j's pass: a_j's gradient path alone
-                    rows = self._action_rows(self.shared).to(first.weight.device)
-                    h = torch.baddbmm(h, live[list(self.shared)], first.weight.t()[rows])  # [M, B, H]
-                h = self.activation(h)
-                for layer in self.trunk[1:]:
-                    h = self.activation(layer(h))
-            h = h.float()
-            if h.dim() == 2:
-                h = h.expand(len(self.shared), *h.shape)
-            parts.append(torch.baddbmm(self.head_bias, h, self.head_weight))  # [M, B, 1]
-        q = torch.cat(parts)[self.order]  # robot order
-        return q.transpose(0, 1).reshape(*lead, n, 1)
 
 
 def _may_need_grad(t: torch.Tensor) -> bool:
@@ -497,7 +415,7 @@ def set_precision(module: nn.Module, precision: str) -> None:
     """``fp32``, ``bf16`` or ``bf16_targets`` for every :class:`PerRobotMLP` in ``module``
     (see :meth:`PerRobotMLP.hidden_dtype`)."""
     for m in module.modules():
-        if isinstance(m, (PerRobotMLP, SharedTrunkCritic)):
+        if isinstance(m, PerRobotMLP):
             m.compute_dtype, m.target_dtype = PRECISIONS[precision]
 
 
@@ -511,20 +429,12 @@ def make_actor(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str
 
 
 def make_critic(num_robots: int, obs_dim: int, hidden=(128, 128), activation: str = "relu",
-                own_only: tuple[int, ...] = (), layer_norm: tuple[int, ...] = (), trunk: str = "per_robot"
-                ) -> ValueOperator:
+                own_only: tuple[int, ...] = (), layer_norm: tuple[int, ...] = ()) -> ValueOperator:
     """Centralized per-robot critic writing ``("agents", "state_action_value")`` ``[..., N, 1]``
     (``own_only``: see :class:`CentralizedCritic`; ``layer_norm``: the robots whose critics normalise their hidden
-    pre-activations; ``trunk="followers"``: :class:`SharedTrunkCritic`, the leader's critic its own)."""
-    if trunk == "followers":
-        if own_only:
-            raise ValueError("make_critic: own_only needs trunk='per_robot'")
-        module = SharedTrunkCritic(num_robots, obs_dim, 2, tuple(hidden), activation, (0,), tuple(layer_norm))
-    else:
-        module = CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only),
-                                   tuple(layer_norm))
+    pre-activations)."""
     return ValueOperator(
-        module,
+        CentralizedCritic(num_robots, obs_dim, 2, tuple(hidden), activation, tuple(own_only), tuple(layer_norm)),
         in_keys=[("agents", "observation"), ("agents", "action")],
         out_keys=[("agents", "state_action_value")],
     )

@@ -105,10 +105,6 @@ def validate(cfg: TrainConfig) -> None:
     check(cfg.model.leader_critic in ("joint", "own"), "model.leader_critic", cfg.model.leader_critic, "joint or own")
     check(cfg.model.critic_layer_norm in ("none", "leader"), "model.critic_layer_norm",
           cfg.model.critic_layer_norm, "none or leader")
-    check(cfg.model.critic_trunk in ("per_robot", "followers"), "model.critic_trunk", cfg.model.critic_trunk,
-          "per_robot or followers")
-    check(cfg.model.critic_trunk == "per_robot" or cfg.model.leader_critic == "joint", "model.critic_trunk",
-          cfg.model.critic_trunk, "per_robot with model.leader_critic=own")
     check(0 <= cfg.start_anywhere <= 1, "start_anywhere", cfg.start_anywhere, "in [0, 1]")
     check(cfg.total_frames >= 1, "total_frames", cfg.total_frames, "an integer >= 1")
     check(cfg.num_envs >= 1, "num_envs", cfg.num_envs, "an integer >= 1")

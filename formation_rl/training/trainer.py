@@ -77,8 +77,7 @@ class Trainer:
                                 residual_scale=cfg.model.residual_scale).to(dev)
         critic = make_critic(n, d, hidden, cfg.model.activation,
                              own_only=(0,) if cfg.model.leader_critic == "own" else (),
-                             layer_norm=(0,) if cfg.model.critic_layer_norm == "leader" else (),
-                             trunk=cfg.model.critic_trunk).to(dev)
+                             layer_norm=(0,) if cfg.model.critic_layer_norm == "leader" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
         set_precision(critic, cfg.precision)
         self.algo = make_algorithm(self.actor, critic, a)
@@ -292,7 +291,6 @@ class Trainer:
             ("env.num_obstacles", self.cfg.env.num_obstacles, saved["env"]["num_obstacles"]),
             ("model.hidden", list(self.cfg.model.hidden), list(saved["model"]["hidden"])),
             ("model.leader_critic", self.cfg.model.leader_critic, saved["model"].get("leader_critic", "joint")),
-            ("model.critic_trunk", self.cfg.model.critic_trunk, saved["model"].get("critic_trunk", "per_robot")),
         ):
             if now != then:
                 raise ValueError(f"resume: {name} = {now!r} but the checkpoint has {then!r}; they must match")

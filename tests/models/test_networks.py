@@ -6,7 +6,7 @@ from tensordict import TensorDict
 from torch import nn
 from torch.func import functional_call, stack_module_state, vmap
 
-from formation_rl.models import PerRobotMLP, SharedTrunkCritic, make_actor, make_critic
+from formation_rl.models import PerRobotMLP, make_actor, make_critic
 from formation_rl.models.networks import _ReluLayers
 
 N, D = 4, 10
@@ -302,67 +302,3 @@ def test_own_only_critic_reads_its_own_observation_and_action(hand_written):
     q = critic(td(obs, act))["agents", "state_action_value"]
     (grad,) = torch.autograd.grad(q[:, 0].sum(), obs)
     assert (grad[:, 1:] == 0).all() and grad[:, 0].abs().sum() > 0
-
-
-def _shared(layer_norm=(0,)) -> SharedTrunkCritic:
-    torch.manual_seed(0)
-    return make_critic(N, D, (16, 16), trunk="followers", layer_norm=layer_norm).module
-
-
-@pytest.mark.parametrize("layer_norm", [(), (0,)])
-def test_shared_trunk_critic_passes_gradient_only_to_its_own_action_in_the_actor_pass(layer_norm):
-    """model.critic_trunk=followers: with own_action_grad (the actor step) the values are the plain pass's and
-    Q_i's gradient reaches a_i alone, the same a_i-gradient as the plain pass gives."""
-    critic = _shared(layer_norm)
-    obs, act = torch.randn(6, N, D), (torch.rand(6, N, 2) * 2 - 1).requires_grad_()
-    plain, own = critic(obs, act), critic(obs, act, own_action_grad=True)
-    torch.testing.assert_close(own, plain)
-    for i in range(N):
-        (grad,) = torch.autograd.grad(own[:, i].sum(), act, retain_graph=True)
-        (full,) = torch.autograd.grad(plain[:, i].sum(), act, retain_graph=True)
-        per_robot = grad.abs().sum((0, 2))
-        assert per_robot[i] > 0 and (per_robot[torch.arange(N) != i] == 0).all()
-        torch.testing.assert_close(grad[:, i], full[:, i])
-
-
-def test_shared_trunk_is_the_followers_and_the_leader_keeps_its_own_mlp():
-    """Each follower's Q is its head on one shared trunk over the joint input; the leader's is an MLP of its own
-    on the same input (as CentralizedCritic's robot 0)."""
-    critic = _shared(())
-    obs, act = torch.randn(5, N, D), torch.rand(5, N, 2) * 2 - 1
-    joint = torch.cat([obs.flatten(-2), act.flatten(-2)], -1)
-    h = joint
-    for layer in critic.trunk:
-        h = torch.relu(layer(h))
-    q = critic(obs, act)
-    for j in range(1, N):
-        torch.testing.assert_close(q[:, j], h @ critic.head_weight[j - 1] + critic.head_bias[j - 1, 0])
-    torch.testing.assert_close(q[:, 0], critic.own_mlp(joint.unsqueeze(-2))[:, 0])
-    for param, robots in ((critic.trunk[1].bias, [1, 2, 3]), (critic.own_mlp.biases[-1], [0]),
-                          (critic.head_weight[1], [2])):  # the trunk, the leader's MLP, robot 2's head
-        before = critic(obs, act).detach()
-        with torch.no_grad():
-            param += 1.0
-        moved = (critic(obs, act) - before).abs().amax((0, 2)) > 1e-6
-        assert moved.nonzero().flatten().tolist() == robots
-    per_robot = make_critic(N, D, (16, 16)).parameters()
-    assert sum(p.numel() for p in critic.parameters()) < sum(p.numel() for p in per_robot)
-
-
-@pytest.mark.parametrize("own_action_grad", [False, True])
-def test_shared_trunk_twins_under_vmap_equal_each_critic_alone(own_action_grad):
-    """TorchRL's vmap over stacked twin critics: the same values and gradients as each critic alone."""
-    torch.manual_seed(0)
-    critics = [make_critic(N, D, (16, 16), trunk="followers", layer_norm=(0,)).module for _ in range(2)]
-    params, _ = stack_module_state(critics)
-    obs, act = torch.randn(8, N, D), (torch.rand(8, N, 2) * 2 - 1).requires_grad_()
-    q = vmap(lambda p, o, a: functional_call(critics[0], p, (o, a), {"own_action_grad": own_action_grad}),
-             (0, None, None))(params, obs, act)
-    each = torch.stack([c(obs, act, own_action_grad=own_action_grad) for c in critics])
-    torch.testing.assert_close(q, each)
-    grads = _grads(q, [act, *params.values()])
-    flat = _grads(each, [act, *critics[0].parameters(), *critics[1].parameters()])
-    k = len(params)
-    expected = [flat[0], *(torch.stack([flat[1 + i], flat[1 + k + i]]) for i in range(k))]
-    for g, e in zip(grads, expected, strict=True):
-        torch.testing.assert_close(g, e)

@@ -100,8 +100,7 @@ def test_residual_actors_start_as_the_controller_learn_corrections_and_reload(tm
 
 
 @pytest.mark.parametrize("field, value, allowed", [("residual", "pid", "none or apf"),
-                                                   ("critic_layer_norm", "all", "none or leader"),  # all: removed
-                                                   ("critic_trunk", "all", "per_robot or followers")])
+                                                   ("critic_layer_norm", "all", "none or leader")])  # all: removed
 def test_model_rejects_unknown_choices_before_any_work(field, value, allowed, tmp_path):
     cfg = tiny()
     setattr(cfg.model, field, value)
@@ -109,15 +108,6 @@ def test_model_rejects_unknown_choices_before_any_work(field, value, allowed, tm
         Trainer(cfg, tmp_path / "run")
     assert not (tmp_path / "run").exists()
 
-
-
-def test_shared_trunk_refuses_the_leaders_own_only_critic(tmp_path):
-    cfg = tiny()
-    cfg.model.critic_trunk, cfg.model.leader_critic = "followers", "own"
-    with pytest.raises(ValueError, match="model.critic_trunk = 'followers' is invalid: must be per_robot with "
-                                         "model.leader_critic=own"):
-        Trainer(cfg, tmp_path / "run")
-    assert not (tmp_path / "run").exists()
 
 
 def test_exploration_eps_replaces_actions_with_uniform_ones_during_collection_only(tmp_path):
