@@ -1,6 +1,7 @@
 """The levers tried on the gradient step, each against the shipped path in the same process.
 
     python benchmarks/levers.py [--rounds 4] [--threads 1] [--precision fp32|bf16|bf16_targets] [--precision-only]
+                                [--critic-layer-norm none|leader] [--only TEXT]
 
 Prints the median ms per PER-MATD3 gradient step (N=5, M=4, batch 1024) of the shipped path and
 of each alternative at `--precision` (default fp32; levers of the hand-written layers act in the bf16
@@ -14,6 +15,7 @@ thread it is the step's own compute time).
 from __future__ import annotations
 
 import argparse
+import functools
 import logging
 import random
 import statistics
@@ -52,10 +54,20 @@ def _strided_group_major(h, groups, width):
     return h.view(-1, groups, width).transpose(0, 1)
 
 
+def _stacked_norm(self, h):
+    """PerRobotMLP.norm before 2026-12-07: each robot's row selected and the rows stacked (the backward filled a
+    zero tensor per row)."""
+    if not self.layer_norm:
+        return h
+    return torch.stack([nn.functional.layer_norm(h[i], h.shape[-1:]) if i in self.layer_norm else h[i]
+                        for i in range(self.num_robots)])
+
+
 class _AutogradReLU(nn.ReLU):
     """A ReLU that is not ``nn.ReLU`` itself: the networks fall back to autograd + autocast layers."""
 
 
+LAYER_NORM_LEVER = "the leader's layer-normalised rows stacked one by one (before; --critic-layer-norm leader)"
 LEVERS = {
     # label: (where it is patched, the attribute or key, the alternative)
     "TorchRL's actor_loss (both twins evaluated) instead of Q1 only": (base.Algorithm, "_actor_loss",
@@ -66,6 +78,7 @@ LEVERS = {
                                                                           _AutogradReLU),
     "the joint layer's output left strided (hand-written layers; bf16 paths)": (networks, "_group_major",
                                                                                 _strided_group_major),
+    LAYER_NORM_LEVER: (networks.PerRobotMLP, "norm", _stacked_norm),
 }
 PRECISION_VARIANTS = {  # label: (precision, patched to the autograd layers)
     "fp32, autograd layers (before)": ("fp32", True),
@@ -89,7 +102,12 @@ def main() -> None:
     parser.add_argument("--precision", default="fp32", choices=["fp32", "bf16", "bf16_targets"],
                         help="the precision the levers are tried in")
     parser.add_argument("--precision-only", action="store_true", help="only the fp32 / bf16 comparison")
+    parser.add_argument("--critic-layer-norm", default="none", choices=["none", "leader"],
+                        help="the critics of both arms: leader = recipe=hindsight's (model.critic_layer_norm=leader)")
+    parser.add_argument("--only", default="", help="only the levers whose label has this text (no precision table)")
     args = parser.parse_args()
+    if args.critic_layer_norm == "leader":
+        tt.make_critic = functools.partial(networks.make_critic, layer_norm=(0,))
     if args.threads:
         torch.set_num_threads(args.threads)
     logging.getLogger("torchrl").setLevel(logging.WARNING)
@@ -100,6 +118,8 @@ def main() -> None:
               "CPU alt. / shipped |")
         print("|---|---:|---:|---:|---:|---:|---:|")
         for label, (target, name, value) in LEVERS.items():
+            if (label == LAYER_NORM_LEVER and args.critic_layer_norm == "none") or args.only not in label:
+                continue  # (no layer norm in either arm: nothing to compare)
             shipped, alt = [], []
             for _ in range(args.rounds):
                 shipped.append(tt.grad_step("per_matd3", steps=15, precision=args.precision))
@@ -108,7 +128,8 @@ def main() -> None:
             (s, sc), (a, ac) = _medians(shipped), _medians(alt)
             print(f"| {label} | {s:.1f} | {a:.1f} | {a / s:.2f} | {sc:.1f} | {ac:.1f} | {ac / sc:.2f} |", flush=True)
         print()
-    precision_table(args.rounds)
+    if not args.only:
+        precision_table(args.rounds)
 
 
 def _medians(runs: list[dict]) -> tuple[float, float]:

@@ -127,6 +127,9 @@ def output_dir(kind: str, ckpt: str | Path) -> Path:
     return Path("outputs") / kind / p.stem
 
 
+RETIRED_CRITIC_OPTIONS = ("critic_trunk",)  # model.* options of the critics only, measured and removed
+
+
 def load_policy(path: str | Path, device: str | torch.device = "cpu", env_config: EnvConfig | None = None) -> Policy:
     """A policy from ``policy.pt``, a ``last.pt`` beside one, or a run directory; ``"apf"``: the
     classical controller.
@@ -143,7 +146,8 @@ def load_policy(path: str | Path, device: str | torch.device = "cpu", env_config
     if "actor" not in state:
         raise ValueError(f"checkpoint {p} holds no actor: pass a policy.pt or a run directory")
     env_cfg = EnvConfig.from_dict(state["env"])
-    model = ModelConfig(**state["model"])
+    # a removed critics-only option (model.critic_trunk, 2aacd5c) leaves the actors as they were: dropped here
+    model = ModelConfig(**{k: v for k, v in state["model"].items() if k not in RETIRED_CRITIC_OPTIONS})
     actor = make_actor(env_cfg.num_robots, env_cfg.obs_dim, tuple(model.hidden), model.activation,
                        base=residual_base(model, env_cfg), residual_scale=model.residual_scale)
     actor.load_state_dict(state["actor"])

@@ -34,6 +34,15 @@ def test_load_policy_without_optimiser_state(trained):
         policy(torch.randn(2, 4, 5))
 
 
+def test_a_checkpoint_naming_a_removed_critic_option_still_loads(trained, tmp_path):
+    """model.critic_trunk (measured, removed): the actors it saved load as they were."""
+    state = torch.load(trained.run_dir / "checkpoints" / "policy.pt", weights_only=False)
+    state["model"]["critic_trunk"] = "followers"
+    torch.save(state, tmp_path / "policy.pt")
+    obs = torch.randn(4, 3, trained.cfg.env.obs_dim)
+    torch.testing.assert_close(load_policy(tmp_path / "policy.pt")(obs), load_policy(trained.run_dir)(obs))
+
+
 def test_policy_is_a_torchrl_module_of_the_actor_keys(trained):
     policy = load_policy(trained.run_dir / "checkpoints" / "last.pt")  # the policy.pt beside it
     assert isinstance(policy, TensorDictModuleBase) and policy.label == "per_matd3"

@@ -75,7 +75,7 @@ def test_critic_equals_per_robot_mlp_on_the_joint_input():
     torch.testing.assert_close(critic(td(obs, act))["agents", "state_action_value"], expected, atol=1e-5, rtol=1e-5)
 
 
-@pytest.mark.parametrize("layer_norm", [(), (0,), tuple(range(N))])
+@pytest.mark.parametrize("layer_norm", [(), (0,), (1, 3), (0, 1, 3), tuple(range(N))])
 def test_critic_layer_norm_normalises_each_hidden_pre_activation(layer_norm):
     """model.critic_layer_norm: scaling a hidden layer's weights and bias by c > 0 leaves the normalised robots'
     critics unchanged (the normalised pre-activation is scale-free) and scales the others' values; the joint first
