@@ -119,7 +119,7 @@ def main() -> None:
         print("|---|---:|---:|---:|---:|---:|---:|")
         for label, (target, name, value) in LEVERS.items():
             if (label == LAYER_NORM_LEVER and args.critic_layer_norm == "none") or args.only not in label:
-                continue  # (no layer norm in either arm: nothing to compare)
+                continue  # (the layer-norm lever: no layer norm in either arm without the flag)
             shipped, alt = [], []
             for _ in range(args.rounds):
                 shipped.append(tt.grad_step("per_matd3", steps=15, precision=args.precision))

@@ -301,8 +301,8 @@ class PerRobotMLP(nn.Module):
         if not self.layer_norm:
             return h
         # runs of robots, normalised or not, joined by one cat: the backward slices views (a stack of single rows
-        # backward-filled a zero tensor per row, 15% of the recipe's step); no mask buffer: a buffer would join the
-        # loss's parameter TensorDict (and its soft updates)
+        # backward-filled a zero tensor per row, 10% of the recipe's step on one thread); no mask buffer: it would
+        # join the loss's parameter TensorDict (and its soft updates)
         parts, start = [], 0
         while start < self.num_robots:
             on = start in self.layer_norm
