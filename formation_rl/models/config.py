@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 @dataclass
 class ModelConfig:
     hidden: list[int] = field(default_factory=lambda: [128, 128])  # actor and critic hidden layers (paper)
+    critic_hidden: list[int] | None = None  # the critics' hidden layers where they differ from the actors' (None:
+    #                                         `hidden`); the actors keep `hidden`
     activation: str = "relu"  # (paper)
     residual: str = "none"  # none: the paper's actors | apf: each actor outputs a correction to the classical
     # controller, clip(apf(o) + residual_scale * tanh(mu(o)), -1, 1), starting at zero (ours, not the paper's)

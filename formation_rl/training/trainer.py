@@ -75,7 +75,8 @@ class Trainer:
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
                                 residual_scale=cfg.model.residual_scale).to(dev)
-        critic = make_critic(n, d, hidden, cfg.model.activation,
+        critic_hidden = tuple(cfg.model.critic_hidden or hidden)
+        critic = make_critic(n, d, critic_hidden, cfg.model.activation,
                              own_only=(0,) if cfg.model.leader_critic == "own" else (),
                              layer_norm=(0,) if cfg.model.critic_layer_norm == "leader" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
@@ -291,6 +292,8 @@ class Trainer:
             ("env.num_obstacles", self.cfg.env.num_obstacles, saved["env"]["num_obstacles"]),
             ("model.hidden", list(self.cfg.model.hidden), list(saved["model"]["hidden"])),
             ("model.leader_critic", self.cfg.model.leader_critic, saved["model"].get("leader_critic", "joint")),
+            ("model.critic_hidden", _critic_sizes(self.cfg.model.critic_hidden, self.cfg.model.hidden),
+             _critic_sizes(saved["model"].get("critic_hidden"), saved["model"]["hidden"])),
         ):
             if now != then:
                 raise ValueError(f"resume: {name} = {now!r} but the checkpoint has {then!r}; they must match")
@@ -376,6 +379,11 @@ def _check_inputs(data, frames: int) -> None:
         if not torch.isfinite(data.get(key)).all():
             raise NonFiniteError(f"training stopped at frame {frames:,}: a non-finite {key[-1]} came from the "
                                  "environment; the last good checkpoint is kept")
+
+
+def _critic_sizes(critic_hidden, hidden) -> list[int]:
+    """The critics' hidden layer sizes, a plain list: ``model.critic_hidden``, or ``model.hidden`` where null."""
+    return [int(h) for h in (critic_hidden or hidden)]
 
 
 def _check_writable(run_dir: Path) -> None:

@@ -109,6 +109,20 @@ def test_fast_budget_composes_to_the_residual_recipe():
     assert cfg.env.relative_positions and cfg.total_frames == 60_000
 
 
+def test_critic_hidden_composes_from_the_command_line():
+    from hydra import compose, initialize_config_dir
+
+    from formation_rl.training.config import register
+    from formation_rl.training.trainer import to_train_config
+
+    register()
+    with initialize_config_dir(str(Path(__file__).resolve().parents[2] / "formation_rl" / "conf"), version_base=None):
+        wide = to_train_config(compose("config", overrides=["model.critic_hidden=[256,256]"]))
+        default = to_train_config(compose("config"))
+    assert list(wide.model.critic_hidden) == [256, 256] and list(wide.model.hidden) == [128, 128]
+    assert default.model.critic_hidden is None
+
+
 def test_team_recipe_composes_after_the_budget_and_paper_recipe_changes_nothing():
     """recipe=team brings the kept learning choices and its own budget; the default recipe (paper) adds nothing."""
     from hydra import compose, initialize_config_dir

@@ -131,6 +131,14 @@ def test_resume_rejects_another_team(tmp_path):
     own.model.leader_critic = "own"  # another critic layout
     with pytest.raises(ValueError, match=r"^resume: model.leader_critic = 'own' but the checkpoint has 'joint'"):
         Trainer(own, tmp_path).load_checkpoint("auto")
+    wide = tiny("matd3", frames=1600)
+    wide.model.critic_hidden = [64, 64]  # wider critics than the checkpoint's (its model.hidden, [32, 32])
+    with pytest.raises(ValueError, match=r"^resume: model.critic_hidden = \[64, 64\] but the checkpoint has "
+                                         r"\[32, 32\]"):
+        Trainer(wide, tmp_path).load_checkpoint("auto")
+    same = tiny("matd3", frames=1600)
+    same.model.critic_hidden = [32, 32]  # the checkpoint's critics, named explicitly
+    Trainer(same, tmp_path).load_checkpoint("auto")
     (tmp_path / CHECKPOINT).write_bytes(b"not a checkpoint")
     with pytest.raises(ValueError, match=r"^checkpoint \S*last.pt cannot be read \(\w+\): it is truncated or corrupt$"):
         Trainer(tiny("matd3", frames=1600), tmp_path).load_checkpoint("auto")

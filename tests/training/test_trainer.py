@@ -110,6 +110,20 @@ def test_model_rejects_unknown_choices_before_any_work(field, value, allowed, tm
 
 
 
+def test_critic_hidden_sizes_the_critics_and_leaves_the_actors(tmp_path):
+    cfg = tiny()
+    cfg.model.critic_hidden = [8, 6]
+    trainer = Trainer(cfg, tmp_path / "run")
+    critic = trainer.algo.loss.qvalue_network.module.mlp
+    assert [w.shape[-1] for w in critic.weights] == [8, 6, 1]
+    assert [w.shape[-1] for w in trainer.actor.module[0].weights] == [32, 32, 2]
+    cfg.model.critic_hidden = [0]
+    with pytest.raises(ValueError, match=r"model.critic_hidden = \[0\] is invalid: must be null or a non-empty list "
+                                         "of positive layer sizes"):
+        Trainer(cfg, tmp_path / "refused")
+    assert not (tmp_path / "refused").exists()
+
+
 def test_exploration_eps_replaces_actions_with_uniform_ones_during_collection_only(tmp_path):
     from torchrl.envs.utils import ExplorationType, set_exploration_type
 
