@@ -9,6 +9,7 @@ only (paper §3, Fig. 4), which a critic fed one shared input cannot express; an
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import time
 from contextlib import contextmanager
@@ -304,13 +305,9 @@ class PerRobotMLP(nn.Module):
         # backward-filled a zero tensor per row, 10% of the recipe's step on one thread); no mask buffer: it would
         # join the loss's parameter TensorDict (and its soft updates)
         parts, start = [], 0
-        while start < self.num_robots:
-            on = start in self.layer_norm
-            end = start + 1
-            while end < self.num_robots and (end in self.layer_norm) == on:
-                end += 1
-            part = h[start:end]
-            parts.append(nn.functional.layer_norm(part, h.shape[-1:]) if on else part)
+        for on, run in itertools.groupby(range(self.num_robots), key=lambda i: i in self.layer_norm):
+            end = start + len(list(run))
+            parts.append(nn.functional.layer_norm(h[start:end], h.shape[-1:]) if on else h[start:end])
             start = end
         return parts[0] if len(parts) == 1 else torch.cat(parts)
 

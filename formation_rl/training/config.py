@@ -98,11 +98,12 @@ def validate(cfg: TrainConfig) -> None:
     check(0 < a.exploration_anneal <= 1, "algo.exploration_anneal", a.exploration_anneal, "in (0, 1]")
     check(0 <= a.exploration_eps <= 1, "algo.exploration_eps", a.exploration_eps, "in [0, 1]")
     check(0 <= a.her <= 1, "algo.her", a.her, "in [0, 1]")
-    check(len(cfg.model.hidden) >= 1 and all(h >= 1 for h in cfg.model.hidden), "model.hidden", cfg.model.hidden,
-          "a non-empty list of positive layer sizes")
-    check(cfg.model.critic_hidden is None or (len(cfg.model.critic_hidden) >= 1
-                                              and all(h >= 1 for h in cfg.model.critic_hidden)),
-          "model.critic_hidden", cfg.model.critic_hidden, "null or a non-empty list of positive layer sizes")
+    def layer_sizes(sizes) -> bool:
+        return len(sizes) >= 1 and all(h >= 1 for h in sizes)
+
+    check(layer_sizes(cfg.model.hidden), "model.hidden", cfg.model.hidden, "a non-empty list of positive layer sizes")
+    check(cfg.model.critic_hidden is None or layer_sizes(cfg.model.critic_hidden), "model.critic_hidden",
+          cfg.model.critic_hidden, "null or a non-empty list of positive layer sizes")
     check(cfg.model.residual in ("none", "apf"), "model.residual", cfg.model.residual, "none or apf")
     check(cfg.model.residual_scale > 0, "model.residual_scale", cfg.model.residual_scale, "> 0")
     check(cfg.model.leader_critic in ("joint", "own"), "model.leader_critic", cfg.model.leader_critic, "joint or own")

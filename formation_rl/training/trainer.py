@@ -75,8 +75,7 @@ class Trainer:
         n, d, hidden = cfg.env.num_robots, cfg.env.obs_dim, tuple(cfg.model.hidden)
         self.actor = make_actor(n, d, hidden, cfg.model.activation, base=residual_base(cfg.model, cfg.env),
                                 residual_scale=cfg.model.residual_scale).to(dev)
-        critic_hidden = tuple(cfg.model.critic_hidden or hidden)
-        critic = make_critic(n, d, critic_hidden, cfg.model.activation,
+        critic = make_critic(n, d, tuple(_critic_sizes(cfg.model.critic_hidden, hidden)), cfg.model.activation,
                              own_only=(0,) if cfg.model.leader_critic == "own" else (),
                              layer_norm=(0,) if cfg.model.critic_layer_norm == "leader" else ()).to(dev)
         set_precision(self.actor, cfg.precision)
