@@ -12,6 +12,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from formation_rl.utils import drop_retired
+
 FORMATION_SHAPES = ("v", "chain")
 REWARD_VARIANTS = ("hybrid", "fixed")
 
@@ -139,7 +141,7 @@ class EnvConfig:
             from omegaconf import OmegaConf
 
             cfg = OmegaConf.to_container(cfg, resolve=True)
-        cfg = _drop_retired(dict(cfg), "env")
+        cfg = drop_retired(dict(cfg), "env")
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(cfg) - known)
         if unknown:
@@ -222,35 +224,10 @@ class EnvConfig:
                "a finite number or null")
 
 
-# Fields of earlier versions, removed after they were measured and not kept (docs/departures.md): a checkpoint that
-# names one at its off value (None: any value, the field only qualified a removed one) still loads; at another value
-# the error names the commit that has it.
-RETIRED = {
-    "env.sort_obstacles": (False, "a971392"),
-    "env.reward.leader_speed_cost": (0.0, "415502c"),
-    "env.reward.leader_speed_limit": (None, "415502c"),
-    "env.reward.leader_speed_floor": (0.0, "415502c"),
-    "env.reward.obstacle_closing": (0.0, "40a14df"),
-    "env.reward.robot_closing": (0.0, "40a14df"),
-    "env.reward.closing_limit": (None, "40a14df"),
-    "env.reward.closing_range": (None, "40a14df"),
-}
-
-
-def _drop_retired(value: dict, where: str) -> dict:
-    for name in [k for k in value if f"{where}.{k}" in RETIRED]:
-        off, commit = RETIRED[f"{where}.{name}"]
-        if off is not None and value[name] != off:
-            raise ValueError(f"{where}.{name} = {value[name]!r}: this option was removed (measured, not kept); "
-                             f"formation_rl at commit {commit} has it")
-        del value[name]
-    return value
-
-
 def _sub(cls: type, value: Any, where: str) -> Any:
     if isinstance(value, cls):
         return value
-    value = _drop_retired(dict(value), where)
+    value = drop_retired(dict(value), where)
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(value) - known)
     if unknown:

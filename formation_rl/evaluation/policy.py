@@ -14,6 +14,7 @@ from formation_rl.evaluation.checkpoint import POLICY, load_checkpoint_file
 from formation_rl.models import make_actor
 from formation_rl.models.config import ModelConfig
 from formation_rl.models.controller import residual_base
+from formation_rl.utils import drop_retired
 
 
 class Policy(TensorDictModuleBase):
@@ -127,9 +128,6 @@ def output_dir(kind: str, ckpt: str | Path) -> Path:
     return Path("outputs") / kind / p.stem
 
 
-RETIRED_CRITIC_OPTIONS = ("critic_trunk",)  # model.* options of the critics only, measured and removed
-
-
 def load_policy(path: str | Path, device: str | torch.device = "cpu", env_config: EnvConfig | None = None) -> Policy:
     """A policy from ``policy.pt``, a ``last.pt`` beside one, or a run directory; ``"apf"``: the
     classical controller.
@@ -146,8 +144,7 @@ def load_policy(path: str | Path, device: str | torch.device = "cpu", env_config
     if "actor" not in state:
         raise ValueError(f"checkpoint {p} holds no actor: pass a policy.pt or a run directory")
     env_cfg = EnvConfig.from_dict(state["env"])
-    # a removed critics-only option (model.critic_trunk, 2aacd5c) leaves the actors as they were: dropped here
-    model = ModelConfig(**{k: v for k, v in state["model"].items() if k not in RETIRED_CRITIC_OPTIONS})
+    model = ModelConfig(**drop_retired(dict(state["model"]), "model"))
     actor = make_actor(env_cfg.num_robots, env_cfg.obs_dim, tuple(model.hidden), model.activation,
                        base=residual_base(model, env_cfg), residual_scale=model.residual_scale)
     actor.load_state_dict(state["actor"])

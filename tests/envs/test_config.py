@@ -85,8 +85,8 @@ def test_unknown_field_and_bad_num_envs():
 
 
 def test_removed_fields_load_at_their_off_value_and_name_their_commit_otherwise():
-    """A checkpoint of an earlier version names fields removed since (RETIRED): at their off value they are dropped,
-    so the policy loads; at another value the one-line error names the commit that has the option."""
+    """A checkpoint of an earlier version names fields removed since (formation_rl.utils.RETIRED): at their off value
+    they are dropped, so the policy loads; at another value the one-line error names the commit that has the option."""
     old = dataclasses.asdict(EnvConfig())
     old["sort_obstacles"] = False
     old["reward"] = dict(old["reward"], leader_speed_cost=0.0, leader_speed_limit=0.75, leader_speed_floor=0.0)
