@@ -29,7 +29,7 @@ $(PY): pyproject.toml
 
 setup: $(PY)  ## create .venv and install the package with its dev tools
 
-train: $(PY)  ## train ALGO with RECIPE (hindsight: our from-scratch PER-MATD3 recipe, ~10-30 min by CPU host; paper: the paper's setup, 3 min); ARGS = Hydra overrides
+train: $(PY)  ## train ALGO with RECIPE (hindsight: our from-scratch PER-MATD3 recipe, ~10-37 min by CPU host; paper: the paper's setup, 3 min); ARGS = Hydra overrides
 	$(PY) -m formation_rl.apps.train algo=$(ALGO) recipe=$(RECIPE) $(ARGS)
 
 train-paper: $(PY)  ## train ALGO on the paper's budget (9M frames, 90,000 gradient steps)
@@ -78,7 +78,7 @@ test-slow: $(PY)  ## the long checks marked slow (10^6 random steps ...)
 bench-env: $(PY)  ## environment throughput, frames/s for B in {1, 64, 1024, 4096}
 	$(PY) benchmarks/env_throughput.py --json benchmarks/env_throughput.json $(ARGS)
 
-bench: $(PY)  ## training throughput: gradient step vs matmul rate, end-to-end split, scaling in N and B (~10 min)
+bench: $(PY)  ## training throughput: gradient step vs matmul rate, end-to-end split, scaling in N and B (~6-10 min by machine)
 	$(PY) benchmarks/train_throughput.py --json benchmarks/train_throughput.json $(ARGS)
 
 bench-gpu: $(PY)  ## on a CUDA machine: eager vs cudagraphs=true training frames/s per algorithm (~6 min)
