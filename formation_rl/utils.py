@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
+from typing import Any
 
 
 def check_device(device: str) -> None:
@@ -41,13 +43,12 @@ RETIRED = {
 }
 
 
-def drop_retired(value: dict, where: str) -> dict:
-    """``value`` (a config section named ``where``, e.g. ``"env.reward"``) without its RETIRED fields; a one-line
-    ``ValueError`` for one at a value other than its off value."""
+def drop_retired(value: Mapping[str, Any], where: str) -> dict:
+    """A copy of ``value`` (a config section named ``where``, e.g. ``"env.reward"``) without its RETIRED fields; a
+    one-line ``ValueError`` for one at a value other than its off value."""
     for name in [k for k in value if f"{where}.{k}" in RETIRED]:
         off, commit = RETIRED[f"{where}.{name}"]
         if off is not None and value[name] != off:
             raise ValueError(f"{where}.{name} = {value[name]!r}: this option was removed (measured, not kept); "
                              f"formation_rl at commit {commit} has it")
-        del value[name]
-    return value
+    return {k: v for k, v in value.items() if f"{where}.{k}" not in RETIRED}

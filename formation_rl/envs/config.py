@@ -141,7 +141,7 @@ class EnvConfig:
             from omegaconf import OmegaConf
 
             cfg = OmegaConf.to_container(cfg, resolve=True)
-        cfg = drop_retired(dict(cfg), "env")
+        cfg = drop_retired(cfg, "env")
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(cfg) - known)
         if unknown:
@@ -227,7 +227,7 @@ class EnvConfig:
 def _sub(cls: type, value: Any, where: str) -> Any:
     if isinstance(value, cls):
         return value
-    value = drop_retired(dict(value), where)
+    value = drop_retired(value, where)
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(value) - known)
     if unknown:

@@ -144,7 +144,7 @@ def load_policy(path: str | Path, device: str | torch.device = "cpu", env_config
     if "actor" not in state:
         raise ValueError(f"checkpoint {p} holds no actor: pass a policy.pt or a run directory")
     env_cfg = EnvConfig.from_dict(state["env"])
-    model = ModelConfig(**drop_retired(dict(state["model"]), "model"))
+    model = ModelConfig(**drop_retired(state["model"], "model"))
     actor = make_actor(env_cfg.num_robots, env_cfg.obs_dim, tuple(model.hidden), model.activation,
                        base=residual_base(model, env_cfg), residual_scale=model.residual_scale)
     actor.load_state_dict(state["actor"])
